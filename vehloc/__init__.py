@@ -1,0 +1,3 @@
+"""vehloc: monocular vehicle localization aided by fine-grained vehicle-model classification."""
+
+__version__ = "0.1.0"

@@ -1,0 +1,1 @@
+"""CompCars-format data sets and the vehicle specifications table."""
