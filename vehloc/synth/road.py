@@ -7,7 +7,7 @@ solid edge lines run past the rendered stretch and do not.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -48,7 +48,6 @@ class RoadLayout:
     stop_line_y_mm: float | None = None
     stop_line_width_mm: float = 400.0
     verge_width_mm: float = 3000.0
-    extra_markers: tuple[RoadMarker, ...] = field(default_factory=tuple)
 
     @property
     def road_width_mm(self) -> float:
@@ -93,7 +92,7 @@ class RoadLayout:
                     ),
                 )
             )
-        return markers + list(self.extra_markers)
+        return markers
 
 
 def _rectangle(x0_mm: float, x1_mm: float, y0_mm: float, y1_mm: float) -> np.ndarray:

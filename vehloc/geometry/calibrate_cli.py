@@ -1,0 +1,61 @@
+"""`vehloc-calibrate site=... image=...`: calibrate a camera, write calibration.json and overlay.png."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import cv2
+import hydra
+from hydra.core.hydra_config import HydraConfig
+from omegaconf import DictConfig
+
+from vehloc.errors import exit_on_error
+from vehloc.geometry.calibration import CalibrationError, CalibrationParams, calibrate, camera_from_homography
+from vehloc.geometry.markers import MarkerDetectionParams, detect_markers
+from vehloc.geometry.overlay import draw_calibration
+from vehloc.geometry.site import read_site
+from vehloc.geometry.video import read_still
+
+CONF_DIR = str(Path(__file__).resolve().parents[2] / "conf")
+
+
+def run_calibration(cfg: DictConfig, out_dir: Path) -> dict[str, object]:
+    """Calibrate from the configured site and image; write the results into `out_dir`."""
+    site = read_site(cfg.site)
+    image = read_still(cfg.image, cfg.frame_index)
+    markers = detect_markers(image, MarkerDetectionParams(**cfg.detection))
+    calibration = calibrate(markers, site, CalibrationParams(**cfg.calibration))
+    height_px, width_px = image.shape[:2]
+    summary = {"site": str(cfg.site), "image": str(cfg.image), "detected_markers": len(markers)}
+    summary |= calibration.summary()
+    try:
+        camera = camera_from_homography(calibration.homography, width_px, height_px)
+        summary |= {
+            "focal_px": camera.focal_px,
+            "camera_height_mm": camera.height_mm,
+            "camera_tilt_deg": camera.tilt_deg,
+            "camera_centre_mm": camera.camera.centre_mm.tolist(),
+        }
+    except CalibrationError:
+        summary["camera"] = "not recoverable from this homography"
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "calibration.json").write_text(json.dumps(summary, indent=2))
+    cv2.imwrite(str(out_dir / "overlay.png"), draw_calibration(image, markers, calibration, cfg.grid_step_mm))
+    return summary
+
+
+@hydra.main(version_base="1.3", config_path=CONF_DIR, config_name="calibrate")
+@exit_on_error("vehloc-calibrate")
+def main(cfg: DictConfig) -> None:
+    out_dir = Path(HydraConfig.get().runtime.output_dir)
+    summary = run_calibration(cfg, out_dir)
+    print(
+        f"{summary['inliers']}/{summary['matched_corners']} corners inliers, "
+        f"RMS {summary['rms_reprojection_px']:.2f} px / {summary['rms_road_error_mm']:.0f} mm on the road; "
+        f"wrote {out_dir / 'calibration.json'} and overlay.png"
+    )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,223 @@
+"""Vehicle ROI from a fixed camera: GMM background subtraction (MOG2), shadow removal, blobs, tracks.
+
+MOG2 models every pixel as a mixture of Gaussians (3 here, as in the paper) learnt over a
+150-frame history, then adapts slowly (so that a car that stops is not absorbed into the background
+within a second); it labels pixels that match a background Gaussian but are darker by a bounded
+ratio as shadow, and those are dropped. Morphology closes the blob, connected components give
+vehicle boxes, and a greedy IoU tracker says when a vehicle has stopped.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+MOG2_SHADOW_VALUE = 127
+MOG2_FOREGROUND_VALUE = 255
+
+
+@dataclass(frozen=True)
+class RoiParams:
+    """Background model and blob filtering."""
+
+    history_frames: int = 150
+    learning_rate_after_history: float = 0.001
+    mixtures: int = 3
+    var_threshold: float = 16.0
+    detect_shadows: bool = True
+    shadow_threshold: float = 0.3
+    shadow_texture_window_px: int = 7
+    shadow_min_correlation: float = 0.5
+    open_kernel_px: int = 3
+    close_kernel_px: int = 9
+    min_area_fraction: float = 0.002
+    enlarge_fraction: float = 0.10
+
+
+@dataclass(frozen=True)
+class Box:
+    """Axis-aligned box in pixels, half-open: x0 <= x < x1, y0 <= y < y1."""
+
+    x0: int
+    y0: int
+    x1: int
+    y1: int
+
+    @property
+    def width_px(self) -> int:
+        return self.x1 - self.x0
+
+    @property
+    def height_px(self) -> int:
+        return self.y1 - self.y0
+
+    @property
+    def area_px(self) -> int:
+        return max(0, self.width_px) * max(0, self.height_px)
+
+    @property
+    def centre_px(self) -> np.ndarray:
+        return np.array([(self.x0 + self.x1) / 2, (self.y0 + self.y1) / 2])
+
+    def iou(self, other: Box) -> float:
+        overlap = Box(max(self.x0, other.x0), max(self.y0, other.y0), min(self.x1, other.x1), min(self.y1, other.y1))
+        inter = overlap.area_px if overlap.x1 > overlap.x0 and overlap.y1 > overlap.y0 else 0
+        union = self.area_px + other.area_px - inter
+        return inter / union if union else 0.0
+
+    def enlarged(self, fraction: float, width_px: int, height_px: int) -> Box:
+        """The box grown by `fraction` of its size on each side, clipped to the image."""
+        dx, dy = round(fraction * self.width_px), round(fraction * self.height_px)
+        return Box(max(0, self.x0 - dx), max(0, self.y0 - dy), min(width_px, self.x1 + dx), min(height_px, self.y1 + dy))
+
+    def crop(self, image: np.ndarray) -> np.ndarray:
+        return image[self.y0:self.y1, self.x0:self.x1]
+
+
+def local_correlation(image: np.ndarray, reference: np.ndarray, window_px: int) -> np.ndarray:
+    """Normalised cross-correlation of two grey images over a square window around every pixel."""
+    a, b = image.astype(np.float32), reference.astype(np.float32)
+    size = (window_px, window_px)
+    mean_a, mean_b = cv2.blur(a, size), cv2.blur(b, size)
+    cov = cv2.blur(a * b, size) - mean_a * mean_b
+    var_a = np.maximum(cv2.blur(a * a, size) - mean_a**2, 0)
+    var_b = np.maximum(cv2.blur(b * b, size) - mean_b**2, 0)
+    return cov / np.sqrt(var_a * var_b + 1e-3)
+
+
+def remove_shadows(
+    mog2_mask: np.ndarray, frame_bgr: np.ndarray, background_bgr: np.ndarray, params: RoiParams
+) -> np.ndarray:
+    """Foreground without cast shadows.
+
+    MOG2 flags as shadow every pixel darker than the background by a bounded ratio with little
+    change of colour. On grey cars over grey roads that flags car body too, so a flagged pixel is
+    taken as shadow only where the road's texture shows through (high local correlation with the
+    background); elsewhere it stays foreground."""
+    foreground = mog2_mask == MOG2_FOREGROUND_VALUE
+    candidates = mog2_mask == MOG2_SHADOW_VALUE
+    if candidates.any():
+        grey = cv2.cvtColor(frame_bgr, cv2.COLOR_BGR2GRAY)
+        background_grey = cv2.cvtColor(background_bgr, cv2.COLOR_BGR2GRAY)
+        texture_kept = local_correlation(grey, background_grey, params.shadow_texture_window_px)
+        foreground |= candidates & (texture_kept < params.shadow_min_correlation)
+    return foreground.astype(np.uint8) * 255
+
+
+def clean_mask(mask: np.ndarray, params: RoiParams) -> np.ndarray:
+    """Open away speckle, close gaps, and fill holes inside each blob."""
+    opened = cv2.morphologyEx(mask, cv2.MORPH_OPEN, np.ones((params.open_kernel_px,) * 2, np.uint8))
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (params.close_kernel_px,) * 2)
+    closed = cv2.morphologyEx(opened, cv2.MORPH_CLOSE, kernel)
+    contours, _ = cv2.findContours(closed, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+    filled = np.zeros_like(closed)
+    cv2.drawContours(filled, contours, -1, 255, cv2.FILLED)
+    return filled
+
+
+def blob_boxes(mask: np.ndarray, min_area_px: int) -> list[Box]:
+    """Boxes of the connected components at least `min_area_px` large, largest first."""
+    count, _, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    boxes = [
+        (area, Box(int(x), int(y), int(x + w), int(y + h)))
+        for x, y, w, h, area in stats[1:count]
+        if area >= min_area_px
+    ]
+    return [box for _, box in sorted(boxes, key=lambda item: -item[0])]
+
+
+class VehicleRoiExtractor:
+    """Feeds frames to MOG2 and returns the vehicle boxes of each frame once the history is learnt."""
+
+    def __init__(self, params: RoiParams | None = None) -> None:
+        self.params = params or RoiParams()
+        self.subtractor = cv2.createBackgroundSubtractorMOG2(
+            history=self.params.history_frames,
+            varThreshold=self.params.var_threshold,
+            detectShadows=self.params.detect_shadows,
+        )
+        self.subtractor.setNMixtures(self.params.mixtures)
+        self.subtractor.setShadowThreshold(self.params.shadow_threshold)
+        self.frames_seen = 0
+        self.last_mask: np.ndarray | None = None
+
+    @property
+    def ready(self) -> bool:
+        """Whether the background has been learnt over the full history."""
+        return self.frames_seen >= self.params.history_frames
+
+    def apply(self, frame_bgr: np.ndarray) -> list[Box]:
+        """Update the model with a frame; its vehicle boxes (none while the history is being learnt)."""
+        rate = -1.0 if not self.ready else self.params.learning_rate_after_history
+        raw = self.subtractor.apply(frame_bgr, learningRate=rate)
+        self.frames_seen += 1
+        background = self.subtractor.getBackgroundImage()
+        self.last_mask = clean_mask(remove_shadows(raw, frame_bgr, background, self.params), self.params)
+        if not self.ready:
+            return []
+        height_px, width_px = frame_bgr.shape[:2]
+        return blob_boxes(self.last_mask, int(self.params.min_area_fraction * width_px * height_px))
+
+
+@dataclass
+class Track:
+    """One vehicle followed across frames."""
+
+    track_id: int
+    boxes: list[Box] = field(default_factory=list)
+    frames: list[int] = field(default_factory=list)
+    stopped_at_frame: int | None = None
+
+    @property
+    def box(self) -> Box:
+        return self.boxes[-1]
+
+
+@dataclass(frozen=True)
+class TrackerParams:
+    """Association and stop detection."""
+
+    min_iou: float = 0.3
+    stop_frames: int = 10
+    stop_tolerance_px: float = 2.0
+    max_missed_frames: int = 5
+
+
+class StoppedVehicleTracker:
+    """Greedy IoU tracker; a track is stopped once its box centre stays within a tolerance for N frames."""
+
+    def __init__(self, params: TrackerParams | None = None) -> None:
+        self.params = params or TrackerParams()
+        self.tracks: list[Track] = []
+        self._next_id = 1
+
+    def update(self, boxes: list[Box], frame_index: int) -> list[Track]:
+        """Associate this frame's boxes; return the tracks that stopped at this frame."""
+        unmatched = list(boxes)
+        live = [t for t in self.tracks if frame_index - t.frames[-1] <= self.params.max_missed_frames]
+        for track in sorted(live, key=lambda t: -t.box.area_px):
+            if not unmatched:
+                break
+            overlaps = [track.box.iou(b) for b in unmatched]
+            best = int(np.argmax(overlaps))
+            if overlaps[best] >= self.params.min_iou:
+                track.boxes.append(unmatched.pop(best))
+                track.frames.append(frame_index)
+        for box in unmatched:
+            self.tracks.append(Track(self._next_id, [box], [frame_index]))
+            self._next_id += 1
+        stopped_now = []
+        for track in self.tracks:
+            if track.stopped_at_frame is None and track.frames[-1] == frame_index and self._is_still(track):
+                track.stopped_at_frame = frame_index
+                stopped_now.append(track)
+        return stopped_now
+
+    def _is_still(self, track: Track) -> bool:
+        n = self.params.stop_frames
+        if len(track.boxes) < n or track.frames[-1] - track.frames[-n] != n - 1:
+            return False
+        centres = np.array([b.centre_px for b in track.boxes[-n:]])
+        return float(np.max(np.linalg.norm(centres - centres[-1], axis=1))) <= self.params.stop_tolerance_px

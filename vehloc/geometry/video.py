@@ -1,0 +1,56 @@
+"""Reading frames from videos and images, with clear errors for files OpenCV cannot read."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from vehloc.errors import VehlocError
+
+VIDEO_SUFFIXES = {".avi", ".mp4", ".mkv", ".mov", ".m4v", ".mpg", ".mpeg", ".webm"}
+
+
+class MediaError(VehlocError):
+    """A video or image cannot be read."""
+
+
+def iter_frames(path: Path | str) -> Iterator[np.ndarray]:
+    """Yield the BGR frames of a video; MediaError if it does not exist or yields no frame."""
+    path = Path(path)
+    if not path.is_file():
+        raise MediaError(f"{path}: video does not exist")
+    capture = cv2.VideoCapture(str(path))
+    try:
+        ok, frame = capture.read()
+        if not ok:
+            raise MediaError(f"{path}: not a readable video (OpenCV decoded no frame)")
+        while ok:
+            yield frame
+            ok, frame = capture.read()
+    finally:
+        capture.release()
+
+
+def read_image(path: Path | str) -> np.ndarray:
+    """Read a colour image; MediaError naming the file if it is missing or not an image."""
+    path = Path(path)
+    if not path.is_file():
+        raise MediaError(f"{path}: image does not exist")
+    image = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    if image is None:
+        raise MediaError(f"{path}: not a readable image")
+    return image
+
+
+def read_still(path: Path | str, frame_index: int = 0) -> np.ndarray:
+    """An image file, or one frame of a video file."""
+    path = Path(path)
+    if path.suffix.lower() not in VIDEO_SUFFIXES:
+        return read_image(path)
+    for index, frame in enumerate(iter_frames(path)):
+        if index == frame_index:
+            return frame
+    raise MediaError(f"{path}: has no frame {frame_index} (only {index + 1} frames)")
