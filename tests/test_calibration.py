@@ -165,3 +165,23 @@ def test_site_file_missing_or_not_yaml(tmp_path: Path) -> None:
     (tmp_path / "bad.yaml").write_text("markers: [unclosed\n")
     with pytest.raises(SiteError, match="not valid YAML"):
         read_site(tmp_path / "bad.yaml")
+
+
+def test_stripe_edges_are_sub_pixel() -> None:
+    """Edge points found across a solid edge line lie within 0.25 px (median) of its true edges."""
+    from vehloc.geometry.calibration import CalibrationParams, stripe_edges
+    from vehloc.geometry.site import SiteStripe
+
+    camera = CAMERAS["side_high"]
+    image = render_road(camera, LAYOUT, np.random.default_rng(3))
+    grey = image.mean(axis=2).astype(np.float32)
+    edge = next(m for m in LAYOUT.markers() if m.marker_id == "edge_right")
+    stripe = SiteStripe("edge_right", tuple(edge.corners_mm[:2].mean(0)), tuple(edge.corners_mm[2:].mean(0)), 150.0)
+    rough = _site_with_clicked_guess(camera, 3.0, seed=4).initial_homography
+    edges = stripe_edges(grey, rough, stripe, CalibrationParams())
+    assert len(edges) == 2
+    truth_inverse = np.linalg.inv(_true_homography(camera))
+    for world_line, points in edges:
+        image_line = world_line @ truth_inverse
+        distance = np.abs(np.column_stack([points, np.ones(len(points))]) @ image_line) / np.hypot(*image_line[:2])
+        assert len(points) >= 20 and np.median(distance) <= 0.25

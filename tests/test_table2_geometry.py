@@ -22,7 +22,7 @@ def test_calibration_on_table2_scene(name: str) -> None:
     camera = spec.camera.camera()
     empty_road = render_road(camera, spec.layout, np.random.default_rng(spec.seed))
     site = scene_site(spec, click_noise_px=2.0, seed=spec.seed)
-    calibration = calibrate(detect_markers(empty_road), site)
+    calibration = calibrate(detect_markers(empty_road), site, image_bgr=empty_road)
     truth = camera.road_homography()
 
     world, _ = site.world_corners_mm()

@@ -25,7 +25,7 @@ def run_calibration(cfg: DictConfig, out_dir: Path) -> dict[str, object]:
     site = read_site(cfg.site)
     image = read_still(cfg.image, cfg.frame_index)
     markers = detect_markers(image, MarkerDetectionParams(**cfg.detection))
-    calibration = calibrate(markers, site, CalibrationParams(**cfg.calibration))
+    calibration = calibrate(markers, site, CalibrationParams(**cfg.calibration), image)
     height_px, width_px = image.shape[:2]
     summary = {"site": str(cfg.site), "image": str(cfg.image), "detected_markers": len(markers)}
     summary |= calibration.summary()

@@ -19,8 +19,9 @@ from scipy.ndimage import map_coordinates
 class MarkerDetectionParams:
     """Thresholds of the marker detector (HLS in OpenCV's 8-bit ranges: H 0-180, L and S 0-255)."""
 
-    white_min_lightness: int = 170
+    white_min_contrast: int = 40
     white_max_saturation: int = 110
+    tophat_kernel_fraction: float = 0.03
     yellow_hue_range: tuple[int, int] = (12, 38)
     yellow_min_saturation: int = 80
     yellow_min_lightness: int = 70
@@ -44,9 +45,15 @@ class DetectedMarker:
 
 
 def marker_masks(image_bgr: np.ndarray, params: MarkerDetectionParams) -> dict[str, np.ndarray]:
-    """Binary masks (uint8 0/255) of white and yellow paint."""
+    """Binary masks (uint8 0/255) of white and yellow paint.
+
+    White paint is found by its lightness above the local surface (a white top-hat with a disk wider
+    than any marker), so that a bright road or a dim view does not need another threshold."""
     hue, lightness, saturation = cv2.split(cv2.cvtColor(image_bgr, cv2.COLOR_BGR2HLS))
-    white = (lightness >= params.white_min_lightness) & (saturation <= params.white_max_saturation)
+    kernel_px = max(5, int(round(params.tophat_kernel_fraction * image_bgr.shape[1])) | 1)
+    disk = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (kernel_px, kernel_px))
+    contrast = cv2.morphologyEx(lightness, cv2.MORPH_TOPHAT, disk)
+    white = (contrast >= params.white_min_contrast) & (saturation <= params.white_max_saturation)
     low, high = params.yellow_hue_range
     yellow = (
         (hue >= low) & (hue <= high)

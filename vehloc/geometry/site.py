@@ -7,6 +7,8 @@ YAML format (world coordinates in mm, the paper's frame: X across the road to th
     markers:
       - id: lane1_dash0
         corners_mm: [[-75, 0], [75, 0], [75, 3000], [-75, 3000]]
+    stripes:                            # optional: solid lines (no corners), centre line and width
+      - {id: edge_right, from_mm: [3600, 0], to_mm: [3600, 90000], width_mm: 150}
     initial_guess:                      # one of the two
       points:                           # at least 4 approximate correspondences, not collinear
         - {world_mm: [-75, 0], image_px: [612, 650]}
@@ -38,6 +40,16 @@ class SiteMarker:
 
 
 @dataclass(frozen=True)
+class SiteStripe:
+    """A solid painted line without usable corners (an edge line): its centre line and width, in mm."""
+
+    stripe_id: str
+    start_mm: tuple[float, float]
+    end_mm: tuple[float, float]
+    width_mm: float
+
+
+@dataclass(frozen=True)
 class Site:
     """Surveyed markers of a camera site and a rough initial homography (world mm -> image px)."""
 
@@ -46,6 +58,7 @@ class Site:
     initial_homography: np.ndarray
     image_size_px: tuple[int, int] | None = None
     guess_points: tuple[tuple[tuple[float, float], tuple[float, float]], ...] = field(default=())
+    stripes: tuple[SiteStripe, ...] = field(default=())
 
     def world_corners_mm(self) -> tuple[np.ndarray, list[str]]:
         """All surveyed corners (M, 2) and their labels `marker_id:k`."""
@@ -101,6 +114,24 @@ def _parse_markers(raw: object, path: Path) -> tuple[SiteMarker, ...]:
     return tuple(markers)
 
 
+def _parse_stripes(raw: object, path: Path) -> tuple[SiteStripe, ...]:
+    if raw is None:
+        return ()
+    if not isinstance(raw, list):
+        raise SiteError(f"{path}: 'stripes' must be a list")
+    stripes = []
+    for i, entry in enumerate(raw):
+        where = f"{path}: stripes[{i}]"
+        if not isinstance(entry, dict) or not {"from_mm", "to_mm", "width_mm"} <= set(entry):
+            raise SiteError(f"{where} needs 'from_mm', 'to_mm' and 'width_mm'")
+        start, end = _parse_pair(entry["from_mm"], f"{where}.from_mm"), _parse_pair(entry["to_mm"], f"{where}.to_mm")
+        width = float(entry["width_mm"])
+        if start == end or not width > 0:
+            raise SiteError(f"{where}: needs two distinct points and a positive width")
+        stripes.append(SiteStripe(str(entry.get("id", i)), start, end, width))
+    return tuple(stripes)
+
+
 def read_site(path: Path | str) -> Site:
     """Read and validate a site file."""
     path = Path(path)
@@ -137,7 +168,10 @@ def read_site(path: Path | str) -> Site:
         homography = homography_from_points(world, image, f"{path}: initial_guess.points")
     size = content.get("image_size_px")
     image_size = tuple(int(v) for v in _parse_pair(size, f"{path}: image_size_px")) if size is not None else None
-    return Site(str(content.get("name", path.stem)), markers, homography / homography[2, 2], image_size, guess_points)
+    stripes = _parse_stripes(content.get("stripes"), path)
+    return Site(
+        str(content.get("name", path.stem)), markers, homography / homography[2, 2], image_size, guess_points, stripes
+    )
 
 
 def write_site(path: Path, site: Site) -> None:
@@ -149,6 +183,11 @@ def write_site(path: Path, site: Site) -> None:
         {"id": m.marker_id, "corners_mm": [[round(float(x), 3), round(float(y), 3)] for x, y in m.corners_mm]}
         for m in site.markers
     ]
+    if site.stripes:
+        content["stripes"] = [
+            {"id": s.stripe_id, "from_mm": list(s.start_mm), "to_mm": list(s.end_mm), "width_mm": s.width_mm}
+            for s in site.stripes
+        ]
     if site.guess_points:
         content["initial_guess"] = {
             "points": [

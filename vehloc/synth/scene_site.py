@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vehloc.geometry.site import Site, SiteMarker, homography_from_points
+from vehloc.geometry.site import Site, SiteMarker, SiteStripe, homography_from_points
 from vehloc.synth.scene import SceneSpec
 
 
@@ -15,8 +15,9 @@ def _visible(pixels: np.ndarray, width_px: int, height_px: int, margin_px: float
 
 
 def scene_site(spec: SceneSpec, click_noise_px: float = 2.0, seed: int = 0) -> Site:
-    """Surveyed marker corners of the scene's road, and an initial guess from four visible corners
-    spread over the image (nearest left/right and farthest left/right), perturbed like hand clicks."""
+    """Surveyed marker corners and edge-line stripes of the scene's road, and an initial guess from
+    four visible corners spread over the image (nearest and farthest, left and right), perturbed
+    like hand clicks."""
     camera = spec.camera.camera()
     markers = tuple(SiteMarker(m.marker_id, m.corners_mm) for m in spec.layout.markers() if m.has_corners)
     corners = np.concatenate([m.corners_mm for m in markers])
@@ -35,4 +36,14 @@ def scene_site(spec: SceneSpec, click_noise_px: float = 2.0, seed: int = 0) -> S
     world = corners[chosen]
     guess = homography_from_points(world, clicked_px, f"scene {spec.name}: clicked corners")
     points = tuple(((float(w[0]), float(w[1])), (float(p[0]), float(p[1]))) for w, p in zip(world, clicked_px))
-    return Site(spec.name, markers, guess / guess[2, 2], (camera.width_px, camera.height_px), points)
+    stripes = tuple(
+        SiteStripe(
+            m.marker_id,
+            tuple((m.corners_mm[0] + m.corners_mm[1]) / 2),
+            tuple((m.corners_mm[2] + m.corners_mm[3]) / 2),
+            float(np.linalg.norm(m.corners_mm[1] - m.corners_mm[0])),
+        )
+        for m in spec.layout.markers()
+        if not m.has_corners
+    )
+    return Site(spec.name, markers, guess / guess[2, 2], (camera.width_px, camera.height_px), points, stripes)

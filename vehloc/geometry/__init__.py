@@ -1,0 +1,1 @@
+"""Camera model, road-plane homography and the monocular localization geometry."""
