@@ -9,10 +9,11 @@ import pytest
 
 from vehloc.geometry.calibration import (
     CalibrationError,
-    apply_homography,
     calibrate,
     camera_from_homography,
+    refine_on_site,
 )
+from vehloc.geometry.edges import EdgeSearchParams, apply_homography, stripe_edges
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.markers import detect_markers
 from vehloc.geometry.site import Site, SiteError, SiteMarker, homography_from_points, read_site, write_site
@@ -169,19 +170,27 @@ def test_site_file_missing_or_not_yaml(tmp_path: Path) -> None:
 
 def test_stripe_edges_are_sub_pixel() -> None:
     """Edge points found across a solid edge line lie within 0.25 px (median) of its true edges."""
-    from vehloc.geometry.calibration import CalibrationParams, stripe_edges
-    from vehloc.geometry.site import SiteStripe
-
     camera = CAMERAS["side_high"]
     image = render_road(camera, LAYOUT, np.random.default_rng(3))
     grey = image.mean(axis=2).astype(np.float32)
     edge = next(m for m in LAYOUT.markers() if m.marker_id == "edge_right")
-    stripe = SiteStripe("edge_right", tuple(edge.corners_mm[:2].mean(0)), tuple(edge.corners_mm[2:].mean(0)), 150.0)
+    start, end = edge.corners_mm[:2].mean(0), edge.corners_mm[2:].mean(0)
     rough = _site_with_clicked_guess(camera, 3.0, seed=4).initial_homography
-    edges = stripe_edges(grey, rough, stripe, CalibrationParams())
+    edges = stripe_edges(grey, rough, start, end, 150.0, EdgeSearchParams())
     assert len(edges) == 2
     truth_inverse = np.linalg.inv(_true_homography(camera))
     for world_line, points in edges:
         image_line = world_line @ truth_inverse
         distance = np.abs(np.column_stack([points, np.ones(len(points))]) @ image_line) / np.hypot(*image_line[:2])
         assert len(points) >= 20 and np.median(distance) <= 0.25
+
+
+def test_refinement_from_the_rough_guess_alone() -> None:
+    """Searching the site's predicted edges around a 3 px rough guess recovers H: RMS <= 1 px."""
+    camera = CAMERAS["side_high"]
+    image = render_road(camera, LAYOUT, np.random.default_rng(3))
+    site = _site_with_clicked_guess(camera, 3.0, seed=4)
+    homography, median_edge_px = refine_on_site(image, site, site.initial_homography)
+    world = _visible_world_corners(camera, site)
+    error_px = apply_homography(homography, world) - apply_homography(_true_homography(camera), world)
+    assert np.sqrt(np.mean(np.sum(error_px**2, axis=1))) <= 1.0 and median_edge_px < 0.3

@@ -13,11 +13,17 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from scipy.ndimage import map_coordinates
-from scipy.optimize import least_squares
 from scipy.spatial import cKDTree
 
 from vehloc.geometry.camera import PinholeCamera
+from vehloc.geometry.edges import (
+    EdgeObservation,
+    EdgeSearchParams,
+    apply_homography,
+    end_edges,
+    refine_on_edges,
+    stripe_edges,
+)
 from vehloc.geometry.markers import DetectedMarker
 from vehloc.geometry.site import Site, SiteError, SiteStripe, collinearity_ratio
 
@@ -36,9 +42,13 @@ class CalibrationParams:
     max_iterations: int = 10
     min_matches: int = 4
     refine_on_edges: bool = True
-    stripe_search_px: float = 4.0
-    stripe_min_contrast: float = 20.0
-    stripe_rounds: int = 2
+    edge_search_px: float = 4.0
+    edge_min_contrast: float = 20.0
+    refine_rounds: int = 4
+
+    @property
+    def edge_search(self) -> EdgeSearchParams:
+        return EdgeSearchParams(search_px=self.edge_search_px, min_contrast=self.edge_min_contrast)
 
 
 @dataclass(frozen=True)
@@ -87,13 +97,6 @@ class Calibration:
             "median_edge_px": self.median_edge_px,
             "iterations": self.iterations,
         }
-
-
-def apply_homography(homography: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """Map (N, 2) points through a 3x3 homography."""
-    points = np.asarray(points, dtype=float).reshape(-1, 2)
-    mapped = np.column_stack([points, np.ones(len(points))]) @ np.asarray(homography).T
-    return mapped[:, :2] / mapped[:, 2:3]
 
 
 def unambiguous_gates_px(projected_px: np.ndarray, gate_px: float, fraction: float = 0.4) -> np.ndarray:
@@ -166,10 +169,6 @@ def match_markers(
     ]
 
 
-EdgeObservation = tuple[np.ndarray, np.ndarray]
-"""A world line (a, b, c) on the road (mm) and the image points (N, 2) px observed on its image."""
-
-
 def marker_edges(
     surveyed_quads_mm: np.ndarray, markers: Sequence[DetectedMarker], matches: Sequence[MarkerMatch]
 ) -> list[EdgeObservation]:
@@ -185,83 +184,33 @@ def marker_edges(
     return edges
 
 
-def stripe_edges(
-    grey: np.ndarray, homography: np.ndarray, stripe: SiteStripe, params: CalibrationParams
-) -> list[EdgeObservation]:
-    """Edge points of a solid painted stripe, searched across its image predicted by H.
-
-    Along the stripe, an intensity profile is taken across its predicted image; the paint is the
-    brightest run near the middle and each of its two half-way crossings is an edge point."""
-    start, end = np.asarray(stripe.start_mm, float), np.asarray(stripe.end_mm, float)
-    along = (end - start) / np.linalg.norm(end - start)
-    normal = np.array([-along[1], along[0]])
-    half_mm = stripe.width_mm / 2
-    centres_mm = start + np.linspace(0, 1, 400)[:, None] * (end - start)
-    height_px, width_px = grey.shape
-    inverse = np.linalg.inv(homography)
-    sides: dict[int, list[np.ndarray]] = {-1: [], 1: []}
-    for centre_mm in centres_mm:
-        centre_px, ahead_px, side_px = apply_homography(
-            homography, np.array([centre_mm, centre_mm + 100 * along, centre_mm + half_mm * normal])
-        )
-        if not (np.all(np.isfinite([centre_px, ahead_px, side_px])) and 6 <= centre_px[0] < width_px - 6
-                and 6 <= centre_px[1] < height_px - 6):
-            continue
-        if (inverse @ [*centre_px, 1.0])[2] * (homography @ [*centre_mm, 1.0])[2] <= 0:
-            continue
-        direction = (ahead_px - centre_px) / np.linalg.norm(ahead_px - centre_px)
-        across = np.array([-direction[1], direction[0]])
-        half_px = abs((side_px - centre_px) @ across)
-        reach_px = half_px + params.stripe_search_px
-        offsets = np.linspace(-reach_px, reach_px, max(15, int(8 * reach_px)))
-        samples = centre_px + offsets[:, None] * across
-        profile = map_coordinates(grey, [samples[:, 1], samples[:, 0]], order=1, mode="nearest")
-        middle = np.abs(offsets) <= half_px + 1.0
-        peak = int(np.flatnonzero(middle)[np.argmax(profile[middle])])
-        outer = np.abs(offsets) >= half_px + 0.5 * params.stripe_search_px
-        asphalt = float(np.median(profile[outer])) if outer.any() else float(profile.min())
-        if profile[peak] - asphalt < params.stripe_min_contrast:
-            continue
-        half_level = 0.5 * (profile[peak] + asphalt)
-        sign_of_world_side = 1 if (side_px - centre_px) @ across > 0 else -1
-        for step in (-1, 1):
-            i = peak
-            while 0 <= i + step < len(profile) and profile[i + step] >= half_level:
-                i += step
-            if not 0 <= i + step < len(profile):
-                continue
-            fraction = (profile[i] - half_level) / (profile[i] - profile[i + step])
-            offset = offsets[i] + fraction * (offsets[i + step] - offsets[i])
-            sides[step * sign_of_world_side].append(centre_px + offset * across)
+def site_edges(grey: np.ndarray, homography: np.ndarray, site: Site, params: EdgeSearchParams) -> list[EdgeObservation]:
+    """Edges of every surveyed marker and stripe of the site, searched around their image under H."""
     edges = []
-    for side, points in sides.items():
-        if len(points) >= 3:
-            edge_start, edge_end = start + side * half_mm * normal, end + side * half_mm * normal
-            edges.append((np.cross([*edge_start, 1.0], [*edge_end, 1.0]), np.array(points)))
+    for stripe in site.stripes:
+        edges += stripe_edges(grey, homography, stripe.start_mm, stripe.end_mm, stripe.width_mm, params)
+    for marker in site.markers:
+        if len(marker.corners_mm) != 4:
+            continue
+        c = marker.corners_mm
+        start, end, width_mm = (c[0] + c[1]) / 2, (c[2] + c[3]) / 2, float(np.linalg.norm(c[1] - c[0]))
+        edges += stripe_edges(grey, homography, start, end, width_mm, params, span=(0.15, 0.85))
+        edges += end_edges(grey, homography, start, end, width_mm, params)
     return edges
 
 
-def refine_on_edges(
-    homography: np.ndarray, edges: Sequence[EdgeObservation], robust_scale_px: float = 0.3
+def refine_on_site(
+    image_bgr: np.ndarray, site: Site, homography: np.ndarray, params: CalibrationParams | None = None
 ) -> tuple[np.ndarray, float | None]:
-    """Refine H so that every observed edge point lies on the image of its world line.
-
-    Edge points along whole sides constrain H far better than corners, whose positions are blurred
-    where two edges meet. Returns the refined H and the median absolute edge distance (px)."""
-    if not edges:
-        return homography, None
-    world_lines = np.concatenate([np.repeat(line[None], len(points), 0) for line, points in edges])
-    points = np.concatenate([points for _, points in edges])
-    points_h = np.column_stack([points, np.ones(len(points))])
-
-    def residuals(params: np.ndarray) -> np.ndarray:
-        candidate = np.append(params, 1.0).reshape(3, 3)
-        image_lines = world_lines @ np.linalg.inv(candidate)  # rows: H^-T applied to each world line
-        return np.sum(image_lines * points_h, axis=1) / np.hypot(image_lines[:, 0], image_lines[:, 1])
-
-    start = (homography / homography[2, 2]).ravel()[:8]
-    result = least_squares(residuals, start, loss="soft_l1", f_scale=robust_scale_px, x_scale="jac")
-    return np.append(result.x, 1.0).reshape(3, 3), float(np.median(np.abs(result.fun)))
+    """Refine H on the edges of the site's markers and stripes, searched around their predicted image;
+    a few rounds, each searching around the previous estimate. Returns H and the median edge
+    distance (px)."""
+    params = params or CalibrationParams()
+    grey = cv2.cvtColor(image_bgr, cv2.COLOR_BGR2GRAY).astype(np.float32)
+    edge_px = None
+    for _ in range(params.refine_rounds):
+        homography, edge_px = refine_on_edges(homography, site_edges(grey, homography, site, params.edge_search))
+    return homography, edge_px
 
 
 def _estimate(world_mm: np.ndarray, image_px: np.ndarray, params: CalibrationParams) -> tuple[np.ndarray, np.ndarray]:
@@ -313,13 +262,9 @@ def calibrate(
         gate_px = max(params.final_gate_px, 0.5 * gate_px)
     edge_px = None
     if params.refine_on_edges:
-        edges = marker_edges(surveyed_quads, detected, matches)
-        homography, edge_px = refine_on_edges(homography, edges)
-        if site.stripes and image_bgr is not None:
-            grey = cv2.cvtColor(image_bgr, cv2.COLOR_BGR2GRAY).astype(np.float32)
-            for _ in range(params.stripe_rounds):
-                found = [e for stripe in site.stripes for e in stripe_edges(grey, homography, stripe, params)]
-                homography, edge_px = refine_on_edges(homography, edges + found)
+        homography, edge_px = refine_on_edges(homography, marker_edges(surveyed_quads, detected, matches))
+        if image_bgr is not None:
+            homography, edge_px = refine_on_site(image_bgr, site, homography, params)
     labels = tuple(f"{surveyed[m.surveyed].marker_id}:{k}" for m in matches for k in range(4))
     return Calibration(homography, world, image, labels, inliers, iteration, edge_px)
 

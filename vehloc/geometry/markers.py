@@ -22,6 +22,7 @@ class MarkerDetectionParams:
     white_min_contrast: int = 40
     white_max_saturation: int = 110
     tophat_kernel_fraction: float = 0.03
+    close_px: int = 0
     yellow_hue_range: tuple[int, int] = (12, 38)
     yellow_min_saturation: int = 80
     yellow_min_lightness: int = 70
@@ -60,11 +61,13 @@ def marker_masks(image_bgr: np.ndarray, params: MarkerDetectionParams) -> dict[s
         & (saturation >= params.yellow_min_saturation)
         & (lightness >= params.yellow_min_lightness)
     )
-    kernel = np.ones((2, 2), np.uint8)
-    return {
-        name: cv2.morphologyEx(mask.astype(np.uint8) * 255, cv2.MORPH_OPEN, kernel)
-        for name, mask in (("white", white), ("yellow", yellow & ~white))
-    }
+    masks = {}
+    for name, mask in (("white", white), ("yellow", yellow & ~white)):
+        mask = cv2.morphologyEx(mask.astype(np.uint8) * 255, cv2.MORPH_OPEN, np.ones((2, 2), np.uint8))
+        if params.close_px > 1:  # rejoin paint broken up by compression in low-resolution video
+            mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, np.ones((params.close_px,) * 2, np.uint8))
+        masks[name] = mask
+    return masks
 
 
 def quadrilateral_of_blob(blob_mask: np.ndarray) -> np.ndarray | None:
