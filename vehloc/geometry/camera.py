@@ -111,7 +111,9 @@ class PinholeCamera:
         horizontal = np.hypot(dx, dy)
         yaw_deg = float(np.degrees(np.arctan2(dx, dy))) if horizontal > 1e-12 else 0.0
         pitch_deg = float(np.degrees(np.arctan2(-dz, horizontal)))
-        return cls.from_pose(position, yaw_deg, pitch_deg, roll_deg, focal_px, width_px, height_px, principal_px)
+        return cls.from_pose(
+            position, yaw_deg, pitch_deg, roll_deg, focal_px, width_px, height_px, principal_px
+        )
 
     @property
     def centre_mm(self) -> np.ndarray:

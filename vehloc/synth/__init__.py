@@ -1,0 +1,1 @@
+"""Procedural car catalog and renderer: the embedded demo data (CompCars-format images, traffic scenes)."""

@@ -1,0 +1,292 @@
+"""Rasterise catalog cars through a `PinholeCamera`: painter's algorithm, Lambert shading, soft shadow.
+
+The car is drawn at ``supersample`` times the image resolution and averaged down, which anti-aliases
+the edges and gives each pixel's car coverage; the car's box is the tight box of the pixels it
+covers at least half.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from vehloc.geometry.camera import PinholeCamera
+from vehloc.synth.body import Material, Mesh, build_car_mesh
+from vehloc.synth.catalog import RGB, CarModel
+
+HEADING_CONVENTION = "heading_deg: angle from world +X to the car's front, counter-clockwise seen from above"
+"""A car pose (x_mm, y_mm, heading_deg) puts the car-frame origin (centre of the footprint on the ground)
+at world (x_mm, y_mm, 0) and turns the car's front (+x of the car frame) from world +X by heading_deg,
+counter-clockwise seen from above (towards +Y); the car's +y (its left) follows, and +z stays up."""
+
+NEAR_MM = 50.0
+_SUBPIXEL_BITS = 4
+
+
+@dataclass(frozen=True)
+class CarPose:
+    """Where a car stands on the road plane; see `HEADING_CONVENTION`."""
+
+    x_mm: float
+    y_mm: float
+    heading_deg: float
+
+    @property
+    def rotation(self) -> np.ndarray:
+        """Car-frame -> world rotation (3x3)."""
+        c, s = np.cos(np.radians(self.heading_deg)), np.sin(np.radians(self.heading_deg))
+        return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+    def car_to_world(self, points_mm: np.ndarray) -> np.ndarray:
+        """Car-frame points (N, 3) -> world points (N, 3), mm."""
+        return np.asarray(points_mm, dtype=float) @ self.rotation.T + np.array([self.x_mm, self.y_mm, 0.0])
+
+
+@dataclass(frozen=True)
+class Lighting:
+    """A distant light: unit ``direction`` towards it (world), and ambient and direct strengths."""
+
+    direction: tuple[float, float, float] = (0.4, -0.5, 0.77)
+    ambient: float = 0.45
+    diffuse: float = 0.65
+
+    @staticmethod
+    def from_angles(azimuth_deg: float, elevation_deg: float, ambient: float, diffuse: float) -> Lighting:
+        """Light from ``azimuth_deg`` (from +X, counter-clockwise) and ``elevation_deg`` above the road."""
+        az, el = np.radians(azimuth_deg), np.radians(elevation_deg)
+        direction = (np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el))
+        return Lighting(tuple(float(v) for v in direction), ambient, diffuse)
+
+
+@dataclass(frozen=True)
+class _Finish:
+    rgb: RGB
+    ambient: float = 1.0
+    diffuse: float = 1.0
+    specular: float = 0.0
+    emissive: float = 0.0
+
+
+_FINISHES: dict[Material, _Finish] = {
+    Material.GLASS: _Finish((26, 34, 44), specular=0.55),
+    Material.TRIM: _Finish((30, 30, 32), specular=0.1),
+    Material.CHROME: _Finish((196, 198, 204), specular=0.7),
+    Material.UNDERBODY: _Finish((16, 16, 16), ambient=0.8, diffuse=0.3),
+    Material.TYRE: _Finish((26, 26, 28), diffuse=0.6),
+    Material.HUB_DARK: _Finish((28, 28, 30)),
+    Material.HEADLIGHT: _Finish((196, 206, 216), specular=0.5, emissive=0.35),
+    Material.LAMP_ACCENT: _Finish((248, 248, 252), emissive=0.8),
+    Material.TAILLIGHT: _Finish((190, 20, 26), specular=0.4, emissive=0.55),
+    Material.REVERSE_LIGHT: _Finish((226, 226, 230), emissive=0.5),
+    Material.PLATE: _Finish((236, 236, 228), emissive=0.45),
+    Material.PLATE_INK: _Finish((22, 24, 32)),
+    Material.BED: _Finish((34, 34, 36)),
+}
+
+
+@dataclass(frozen=True, eq=False)
+class CarRender:
+    """A rendered car over its background, with its ground truth in the image.
+
+    ``coverage``: fraction of each pixel covered by the car (H, W). ``box_xyxy_px``: tight box of the
+    pixels covered at least half, 0-based inclusive (x1, y1, x2, y2), or None when none is.
+    Tyre contact points are ordered front-left, front-right, rear-left, rear-right; footprint corners
+    front-left, front-right, rear-right, rear-left (world mm, and pixels).
+    """
+
+    image_bgr: np.ndarray
+    coverage: np.ndarray
+    box_xyxy_px: tuple[int, int, int, int] | None
+    tyre_contacts_mm: np.ndarray
+    tyre_contacts_px: np.ndarray
+    footprint_corners_mm: np.ndarray
+    footprint_corners_px: np.ndarray
+
+    @property
+    def mask(self) -> np.ndarray:
+        return self.coverage >= 0.5
+
+    @property
+    def box_1based_xyxy(self) -> tuple[int, int, int, int] | None:
+        """The box in CompCars label convention (1-based, inclusive)."""
+        return None if self.box_xyxy_px is None else tuple(v + 1 for v in self.box_xyxy_px)
+
+
+def tight_box(mask: np.ndarray) -> tuple[int, int, int, int] | None:
+    """Tight 0-based inclusive (x1, y1, x2, y2) of the true pixels of a mask, None when empty."""
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    if len(rows) == 0:
+        return None
+    return int(cols[0]), int(rows[0]), int(cols[-1]), int(rows[-1])
+
+
+def tyre_contacts_car_mm(model: CarModel) -> np.ndarray:
+    """Tyre contact points in the car frame: front-left, front-right, rear-left, rear-right."""
+    f, r = model.front_axle_x_mm, model.rear_axle_x_mm
+    tf, tr = model.track_front_mm / 2, model.track_rear_mm / 2
+    return np.array([[f, tf, 0.0], [f, -tf, 0.0], [r, tr, 0.0], [r, -tr, 0.0]])
+
+
+def footprint_car_mm(model: CarModel) -> np.ndarray:
+    """Footprint corners in the car frame: front-left, front-right, rear-right, rear-left."""
+    hl, hw = model.length_mm / 2, model.width_mm / 2
+    return np.array([[hl, hw, 0.0], [hl, -hw, 0.0], [-hl, -hw, 0.0], [-hl, hw, 0.0]])
+
+
+def clip_to_near_plane(points_cam_mm: np.ndarray, near_mm: float = NEAR_MM) -> np.ndarray:
+    """Clip a camera-frame polygon (N, 3) to z >= near_mm (Sutherland-Hodgman); may return no points."""
+    out = []
+    n = len(points_cam_mm)
+    for i in range(n):
+        a, b = points_cam_mm[i], points_cam_mm[(i + 1) % n]
+        a_in, b_in = a[2] >= near_mm, b[2] >= near_mm
+        if a_in:
+            out.append(a)
+        if a_in != b_in:
+            out.append(a + (b - a) * (near_mm - a[2]) / (b[2] - a[2]))
+    return np.array(out).reshape(-1, 3)
+
+
+def fill_world_polygon(
+    image: np.ndarray, camera: PinholeCamera, polygon_mm: np.ndarray, colour: tuple[float, ...]
+) -> None:
+    """Fill a world polygon (N, 3) into ``image`` (anti-aliased), clipped to the camera's near plane."""
+    clipped = clip_to_near_plane(camera.to_camera(polygon_mm))
+    if len(clipped) < 3:
+        return
+    pixels = camera.project_camera(clipped)
+    limit = 8.0 * max(image.shape[:2])
+    pixels = np.clip(pixels, -limit, limit)
+    points = np.round(pixels * (1 << _SUBPIXEL_BITS)).astype(np.int32)
+    cv2.fillPoly(image, [points], colour, cv2.LINE_AA, _SUBPIXEL_BITS)
+
+
+def _face_colours(
+    mesh: Mesh,
+    normals: np.ndarray,
+    centroids: np.ndarray,
+    camera_mm: np.ndarray,
+    lighting: Lighting,
+    body_rgb: RGB,
+    model: CarModel,
+) -> np.ndarray:
+    """Shaded BGR colour (F, 3) of every face."""
+    light = np.asarray(lighting.direction, dtype=float)
+    light /= np.linalg.norm(light)
+    view = camera_mm - centroids
+    view /= np.linalg.norm(view, axis=1, keepdims=True)
+    half = view + light
+    half /= np.linalg.norm(half, axis=1, keepdims=True)
+    lambert = np.clip(normals @ light, 0.0, None)
+    highlight = np.clip(np.sum(normals * half, axis=1), 0.0, None) ** 24
+    sky = 0.8 + 0.2 * normals[:, 2]
+    finishes = dict(_FINISHES)
+    finishes[Material.BODY] = _Finish(body_rgb, specular=0.35)
+    finishes[Material.MIRROR] = finishes[Material.BODY]
+    finishes[Material.GRILLE] = _Finish(model.details.grille_rgb, specular=0.1)
+    finishes[Material.HUB] = _Finish(model.details.hub_rgb, specular=0.4)
+    by_value = [finishes[material] for material in Material]
+    table_rgb = np.array([f.rgb for f in by_value], dtype=float)
+    table_params = np.array([(f.ambient, f.diffuse, f.specular, f.emissive) for f in by_value])
+    rgb = table_rgb[mesh.materials]
+    ambient, diffuse, specular, emissive = table_params[mesh.materials].T
+    shade = lighting.ambient * ambient * sky + lighting.diffuse * diffuse * lambert
+    lit = (
+        rgb * (emissive + (1 - emissive) * shade)[:, None]
+        + (255.0 * lighting.diffuse * specular * highlight)[:, None]
+    )
+    return np.clip(lit, 0, 255)[:, ::-1]
+
+
+def _draw_shadow(
+    image: np.ndarray,
+    camera: PinholeCamera,
+    model: CarModel,
+    pose: CarPose,
+    lighting: Lighting,
+    strength: float,
+) -> None:
+    """Darken the road under the car: a wide soft shadow offset away from the light, and a contact shadow."""
+    height, width = image.shape[:2]
+    light = np.asarray(lighting.direction, dtype=float)
+    away_mm = -light[:2] / max(np.linalg.norm(light[:2]), 1e-9) * min(0.35 / max(light[2], 0.25), 1.2) * 400.0
+    footprint = footprint_car_mm(model)
+    for scale, shift, blur_frac, weight in ((1.08, 1.0, 0.05, strength), (0.96, 0.0, 0.02, strength * 0.7)):
+        shadow = np.zeros((height, width), np.float32)
+        corners = pose.car_to_world(footprint * np.array([scale, scale, 0.0]))
+        corners[:, :2] += away_mm * shift
+        fill_world_polygon(shadow, camera, corners, (1.0,))
+        if not shadow.any():
+            continue
+        box = tight_box(shadow > 0)
+        assert box is not None
+        sigma = max(1.0, blur_frac * max(box[2] - box[0], box[3] - box[1]))
+        shadow = cv2.GaussianBlur(shadow, (0, 0), sigma)
+        image *= (1.0 - weight * shadow)[:, :, None]
+
+
+def render_car(
+    model: CarModel,
+    body_rgb: RGB,
+    pose: CarPose,
+    camera: PinholeCamera,
+    background_bgr: np.ndarray,
+    lighting: Lighting = Lighting(),
+    shadow_strength: float = 0.55,
+    supersample: int = 3,
+) -> CarRender:
+    """Render one car over a background image (H, W, 3 uint8, the camera's size)."""
+    height, width = camera.height_px, camera.width_px
+    if background_bgr.shape != (height, width, 3):
+        raise ValueError(
+            f"background shape {background_bgr.shape} does not match the camera's {(height, width, 3)}"
+        )
+    mesh = build_car_mesh(model)
+    rotation = pose.rotation
+    vertices = pose.car_to_world(mesh.vertices_mm)
+    centroids = pose.car_to_world(mesh.centroids_mm)
+    normals = mesh.normals @ rotation.T
+    camera_mm = camera.centre_mm
+
+    facing = np.sum(normals * (camera_mm - centroids), axis=1) > 0
+    visible = facing[mesh.groups]
+    depth = np.linalg.norm(centroids[mesh.groups] - camera_mm, axis=1)
+    order = np.lexsort((mesh.layers, mesh.groups, -depth))
+    order = order[visible[order]]
+
+    vertices_cam = camera.to_camera(vertices)
+    if vertices_cam[:, 2].min() < NEAR_MM:
+        raise ValueError(f"{model.name} at {pose} is not entirely in front of the camera")
+    pixels = camera.project_camera(vertices_cam)
+    points = np.round(((pixels + 0.5) * supersample - 0.5) * (1 << _SUBPIXEL_BITS)).astype(np.int32)
+    colours = _face_colours(mesh, normals, centroids, camera_mm, lighting, body_rgb, model)
+    colours4 = np.column_stack([colours, np.full(len(colours), 255.0)]).tolist()
+
+    layer = np.zeros((height * supersample, width * supersample, 4), np.uint8)
+    offsets = mesh.offsets
+    for face in order.tolist():
+        cv2.fillPoly(
+            layer, [points[offsets[face] : offsets[face + 1]]], colours4[face], cv2.LINE_8, _SUBPIXEL_BITS
+        )
+    small = cv2.resize(layer, (width, height), interpolation=cv2.INTER_AREA).astype(np.float32)
+    coverage = small[:, :, 3] / 255.0
+
+    image = background_bgr.astype(np.float32)
+    if shadow_strength > 0:
+        _draw_shadow(image, camera, model, pose, lighting, shadow_strength)
+    image = image * (1.0 - coverage[:, :, None]) + small[:, :, :3]
+    image_bgr = np.clip(np.round(image), 0, 255).astype(np.uint8)
+
+    contacts_mm = pose.car_to_world(tyre_contacts_car_mm(model))
+    corners_mm = pose.car_to_world(footprint_car_mm(model))
+    return CarRender(
+        image_bgr=image_bgr,
+        coverage=coverage,
+        box_xyxy_px=tight_box(coverage >= 0.5),
+        tyre_contacts_mm=contacts_mm,
+        tyre_contacts_px=camera.project(contacts_mm),
+        footprint_corners_mm=corners_mm,
+        footprint_corners_px=camera.project(corners_mm),
+    )
