@@ -11,11 +11,17 @@ from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
 from vehloc.errors import exit_on_error
-from vehloc.geometry.calibration import CalibrationError, CalibrationParams, calibrate, camera_from_homography
+from vehloc.geometry.calibration import (
+    CalibrationError,
+    CalibrationParams,
+    calibrate,
+    calibrate_from_guess,
+    camera_from_homography,
+)
 from vehloc.geometry.markers import MarkerDetectionParams, detect_markers
 from vehloc.geometry.overlay import draw_calibration
 from vehloc.geometry.site import read_site
-from vehloc.geometry.video import read_still
+from vehloc.geometry.video import median_background, read_still
 
 CONF_DIR = str(Path(__file__).resolve().parents[2] / "conf")
 
@@ -23,11 +29,20 @@ CONF_DIR = str(Path(__file__).resolve().parents[2] / "conf")
 def run_calibration(cfg: DictConfig, out_dir: Path) -> dict[str, object]:
     """Calibrate from the configured site and image; write the results into `out_dir`."""
     site = read_site(cfg.site)
-    image = read_still(cfg.image, cfg.frame_index)
+    if cfg.background_frames > 0:
+        image = median_background(cfg.image, cfg.background_frames)
+    else:
+        image = read_still(cfg.image, cfg.frame_index)
     markers = detect_markers(image, MarkerDetectionParams(**cfg.detection))
-    calibration = calibrate(markers, site, CalibrationParams(**cfg.calibration), image)
+    params = CalibrationParams(**cfg.calibration)
+    if cfg.mode == "detect":
+        calibration = calibrate(markers, site, params, image)
+    elif cfg.mode == "guess":
+        calibration = calibrate_from_guess(image, site, params)
+    else:
+        raise CalibrationError(f"mode must be 'detect' or 'guess', got {cfg.mode!r}")
     height_px, width_px = image.shape[:2]
-    summary = {"site": str(cfg.site), "image": str(cfg.image), "detected_markers": len(markers)}
+    summary = {"site": str(cfg.site), "image": str(cfg.image), "mode": cfg.mode, "detected_markers": len(markers)}
     summary |= calibration.summary()
     try:
         camera = camera_from_homography(calibration.homography, width_px, height_px)
@@ -40,6 +55,7 @@ def run_calibration(cfg: DictConfig, out_dir: Path) -> dict[str, object]:
     except CalibrationError:
         summary["camera"] = "not recoverable from this homography"
     out_dir.mkdir(parents=True, exist_ok=True)
+    cv2.imwrite(str(out_dir / "image.png"), image)
     (out_dir / "calibration.json").write_text(json.dumps(summary, indent=2))
     cv2.imwrite(str(out_dir / "overlay.png"), draw_calibration(image, markers, calibration, cfg.grid_step_mm))
     return summary
@@ -50,10 +66,13 @@ def run_calibration(cfg: DictConfig, out_dir: Path) -> dict[str, object]:
 def main(cfg: DictConfig) -> None:
     out_dir = Path(HydraConfig.get().runtime.output_dir)
     summary = run_calibration(cfg, out_dir)
+    kind = "clicked points" if cfg.mode == "guess" else "corners"
+    edge = summary["median_edge_px"]
     print(
-        f"{summary['inliers']}/{summary['matched_corners']} corners inliers, "
-        f"RMS {summary['rms_reprojection_px']:.2f} px / {summary['rms_road_error_mm']:.0f} mm on the road; "
-        f"wrote {out_dir / 'calibration.json'} and overlay.png"
+        f"{summary['inliers']}/{summary['matched_corners']} {kind} inliers, RMS {summary['rms_reprojection_px']:.2f} px "
+        f"/ {summary['rms_road_error_mm']:.0f} mm on the road"
+        + (f", median edge distance {edge:.2f} px" if edge is not None else "")
+        + f"; wrote {out_dir / 'calibration.json'} and overlay.png"
     )
 
 

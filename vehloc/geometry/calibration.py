@@ -16,8 +16,10 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from vehloc.geometry.camera import PinholeCamera
+from vehloc.geometry.camera_fit import FreeHomography, PinholeHomography
 from vehloc.geometry.edges import (
     EdgeObservation,
+    Anchors,
     EdgeSearchParams,
     apply_homography,
     end_edges,
@@ -45,6 +47,8 @@ class CalibrationParams:
     edge_search_px: float = 4.0
     edge_min_contrast: float = 20.0
     refine_rounds: int = 4
+    guess_sigma_px: float = 5.0
+    pinhole_model: bool = False
 
     @property
     def edge_search(self) -> EdgeSearchParams:
@@ -203,13 +207,25 @@ def refine_on_site(
     image_bgr: np.ndarray, site: Site, homography: np.ndarray, params: CalibrationParams | None = None
 ) -> tuple[np.ndarray, float | None]:
     """Refine H on the edges of the site's markers and stripes, searched around their predicted image;
-    a few rounds, each searching around the previous estimate. Returns H and the median edge
-    distance (px)."""
+    a few rounds, each searching around the previous estimate. The site's clicked points, when it
+    has them, hold the estimate where no edge is seen (a prior of `guess_sigma_px`). Returns H and
+    the median edge distance (px) of the last round. With `pinhole_model`, H stays the homography
+    of a pinhole camera with square pixels and a centred principal point (7 parameters), which
+    keeps a view with few markers physically consistent."""
     params = params or CalibrationParams()
     grey = cv2.cvtColor(image_bgr, cv2.COLOR_BGR2GRAY).astype(np.float32)
+    anchors = None
+    if site.guess_points:
+        anchors = Anchors(
+            np.array([w for w, _ in site.guess_points]), np.array([p for _, p in site.guess_points]), params.guess_sigma_px
+        )
+    model = PinholeHomography(grey.shape[1], grey.shape[0]) if params.pinhole_model else FreeHomography()
     edge_px = None
     for _ in range(params.refine_rounds):
-        homography, edge_px = refine_on_edges(homography, site_edges(grey, homography, site, params.edge_search))
+        edges = site_edges(grey, homography, site, params.edge_search)
+        if not edges:
+            break
+        homography, edge_px = refine_on_edges(homography, edges, anchors=anchors, model=model)
     return homography, edge_px
 
 
@@ -267,6 +283,22 @@ def calibrate(
             homography, edge_px = refine_on_site(image_bgr, site, homography, params)
     labels = tuple(f"{surveyed[m.surveyed].marker_id}:{k}" for m in matches for k in range(4))
     return Calibration(homography, world, image, labels, inliers, iteration, edge_px)
+
+
+def calibrate_from_guess(
+    image_bgr: np.ndarray, site: Site, params: CalibrationParams | None = None
+) -> Calibration:
+    """Refine the site's clicked guess on the edges of its predicted markers and stripes.
+
+    For views whose markers are too small or blurred to be found as blobs. The clicked points serve
+    as the matched corners of the result, so its reprojection error is theirs."""
+    if not site.guess_points:
+        raise CalibrationError(f"site {site.name!r}: calibrating from the guess needs 'initial_guess.points'")
+    homography, edge_px = refine_on_site(image_bgr, site, site.initial_homography, params)
+    world = np.array([w for w, _ in site.guess_points])
+    image = np.array([p for _, p in site.guess_points])
+    labels = tuple(f"guess:{i}" for i in range(len(world)))
+    return Calibration(homography, world, image, labels, np.ones(len(world), bool), params.refine_rounds if params else 0, edge_px)
 
 
 @dataclass(frozen=True)

@@ -14,6 +14,8 @@ import numpy as np
 from scipy.ndimage import map_coordinates
 from scipy.optimize import least_squares
 
+from vehloc.geometry.camera_fit import FreeHomography, PinholeHomography
+
 EdgeObservation = tuple[np.ndarray, np.ndarray]
 """A world line (a, b, c) on the road (mm) and the image points (N, 2) px observed on its image."""
 
@@ -159,24 +161,52 @@ def end_edges(
     return observations
 
 
+@dataclass(frozen=True)
+class Anchors:
+    """Approximate correspondences (world mm -> image px) with their uncertainty, as a weak prior."""
+
+    world_mm: np.ndarray
+    image_px: np.ndarray
+    sigma_px: float
+
+
 def refine_on_edges(
-    homography: np.ndarray, edges: Sequence[EdgeObservation], robust_scale_px: float = 0.3
+    homography: np.ndarray,
+    edges: Sequence[EdgeObservation],
+    robust_scale_px: float = 0.3,
+    anchors: Anchors | None = None,
+    model: FreeHomography | PinholeHomography | None = None,
 ) -> tuple[np.ndarray, float | None]:
     """Refine H so that every observed edge point lies on the image of its world line.
 
     Edge points along whole sides constrain H far better than corners, whose positions are blurred
-    where two edges meet. Returns the refined H and the median absolute edge distance (px)."""
+    where two edges meet. Anchors, when given, keep H near approximate correspondences in the
+    directions the edges leave free (an anchor off by its sigma weighs like one edge point off by
+    the robust scale). `model` parametrises H (free by default, or a pinhole camera). Returns the
+    refined H and the median absolute edge distance (px)."""
     if not edges:
         return homography, None
     world_lines = np.concatenate([np.repeat(line[None], len(points), 0) for line, points in edges])
     points = np.concatenate([points for _, points in edges])
     points_h = np.column_stack([points, np.ones(len(points))])
 
-    def residuals(params: np.ndarray) -> np.ndarray:
-        candidate = np.append(params, 1.0).reshape(3, 3)
+    def edge_residuals(candidate: np.ndarray) -> np.ndarray:
         image_lines = world_lines @ np.linalg.inv(candidate)  # rows: H^-T applied to each world line
         return np.sum(image_lines * points_h, axis=1) / np.hypot(image_lines[:, 0], image_lines[:, 1])
 
-    start = (homography / homography[2, 2]).ravel()[:8]
-    result = least_squares(residuals, start, loss="soft_l1", f_scale=robust_scale_px, x_scale="jac")
-    return np.append(result.x, 1.0).reshape(3, 3), float(np.median(np.abs(result.fun)))
+    model = model or FreeHomography()
+
+    def residuals(params: np.ndarray) -> np.ndarray:
+        candidate = model.to_homography(params)
+        if anchors is None:
+            return edge_residuals(candidate)
+        anchor_px = apply_homography(candidate, anchors.world_mm) - anchors.image_px
+        weight = robust_scale_px / anchors.sigma_px
+        return np.concatenate([edge_residuals(candidate), weight * anchor_px.ravel()])
+
+    result = least_squares(
+        residuals, model.from_homography(homography), loss="soft_l1", f_scale=robust_scale_px, x_scale="jac"
+    )
+    refined = model.to_homography(result.x)
+    refined = refined / refined[2, 2]
+    return refined, float(np.median(np.abs(edge_residuals(refined))))

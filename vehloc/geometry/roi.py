@@ -1,9 +1,9 @@
 """Vehicle ROI from a fixed camera: GMM background subtraction (MOG2), shadow removal, blobs, tracks.
 
 MOG2 models every pixel as a mixture of Gaussians (3 here, as in the paper) learnt over a
-150-frame history, then adapts slowly (so that a car that stops is not absorbed into the background
-within a second); it labels pixels that match a background Gaussian but are darker by a bounded
-ratio as shadow, and those are dropped. Morphology closes the blob, connected components give
+150-frame history, then adapts more slowly (so that a car that stops is not absorbed into the
+background within a second, while light changes still are over some seconds); it labels pixels
+that match a background Gaussian but are darker by a bounded ratio as shadow, and those are dropped. Morphology closes the blob, connected components give
 vehicle boxes, and a greedy IoU tracker says when a vehicle has stopped.
 """
 
@@ -23,13 +23,14 @@ class RoiParams:
     """Background model and blob filtering."""
 
     history_frames: int = 150
-    learning_rate_after_history: float = 0.001
+    learning_rate_after_history: float = 0.002
     mixtures: int = 3
     var_threshold: float = 16.0
     detect_shadows: bool = True
     shadow_threshold: float = 0.3
     shadow_texture_window_px: int = 7
     shadow_min_correlation: float = 0.5
+    shadow_min_texture: float = 4.0
     open_kernel_px: int = 3
     close_kernel_px: int = 9
     min_area_fraction: float = 0.002
@@ -76,15 +77,16 @@ class Box:
         return image[self.y0:self.y1, self.x0:self.x1]
 
 
-def local_correlation(image: np.ndarray, reference: np.ndarray, window_px: int) -> np.ndarray:
-    """Normalised cross-correlation of two grey images over a square window around every pixel."""
+def local_correlation(image: np.ndarray, reference: np.ndarray, window_px: int) -> tuple[np.ndarray, np.ndarray]:
+    """Normalised cross-correlation of two grey images over a square window around every pixel,
+    and the reference's local standard deviation (its texture)."""
     a, b = image.astype(np.float32), reference.astype(np.float32)
     size = (window_px, window_px)
     mean_a, mean_b = cv2.blur(a, size), cv2.blur(b, size)
     cov = cv2.blur(a * b, size) - mean_a * mean_b
     var_a = np.maximum(cv2.blur(a * a, size) - mean_a**2, 0)
     var_b = np.maximum(cv2.blur(b * b, size) - mean_b**2, 0)
-    return cov / np.sqrt(var_a * var_b + 1e-3)
+    return cov / np.sqrt(var_a * var_b + 1e-3), np.sqrt(var_b)
 
 
 def remove_shadows(
@@ -93,16 +95,18 @@ def remove_shadows(
     """Foreground without cast shadows.
 
     MOG2 flags as shadow every pixel darker than the background by a bounded ratio with little
-    change of colour. On grey cars over grey roads that flags car body too, so a flagged pixel is
-    taken as shadow only where the road's texture shows through (high local correlation with the
-    background); elsewhere it stays foreground."""
+    change of colour. On grey cars over grey roads that flags car body too, so where the background
+    has texture a flagged pixel is taken as shadow only if that texture shows through (high local
+    correlation with the background); elsewhere it stays foreground. Where the background has no
+    texture to check, MOG2's label stands."""
     foreground = mog2_mask == MOG2_FOREGROUND_VALUE
     candidates = mog2_mask == MOG2_SHADOW_VALUE
     if candidates.any():
         grey = cv2.cvtColor(frame_bgr, cv2.COLOR_BGR2GRAY)
         background_grey = cv2.cvtColor(background_bgr, cv2.COLOR_BGR2GRAY)
-        texture_kept = local_correlation(grey, background_grey, params.shadow_texture_window_px)
-        foreground |= candidates & (texture_kept < params.shadow_min_correlation)
+        correlation, texture = local_correlation(grey, background_grey, params.shadow_texture_window_px)
+        checkable = texture >= params.shadow_min_texture
+        foreground |= candidates & checkable & (correlation < params.shadow_min_correlation)
     return foreground.astype(np.uint8) * 255
 
 
@@ -181,12 +185,13 @@ class TrackerParams:
 
     min_iou: float = 0.3
     stop_frames: int = 10
-    stop_tolerance_px: float = 2.0
+    stop_tolerance_fraction: float = 0.02
     max_missed_frames: int = 5
 
 
 class StoppedVehicleTracker:
-    """Greedy IoU tracker; a track is stopped once its box centre stays within a tolerance for N frames."""
+    """Greedy IoU tracker; a track is stopped once its box centre stays, for N frames, within a
+    fraction of the box diagonal (blob edges flicker by a few pixels even when the car stands)."""
 
     def __init__(self, params: TrackerParams | None = None) -> None:
         self.params = params or TrackerParams()
@@ -220,4 +225,5 @@ class StoppedVehicleTracker:
         if len(track.boxes) < n or track.frames[-1] - track.frames[-n] != n - 1:
             return False
         centres = np.array([b.centre_px for b in track.boxes[-n:]])
-        return float(np.max(np.linalg.norm(centres - centres[-1], axis=1))) <= self.params.stop_tolerance_px
+        tolerance_px = self.params.stop_tolerance_fraction * np.hypot(track.box.width_px, track.box.height_px)
+        return float(np.max(np.linalg.norm(centres - centres[-1], axis=1))) <= tolerance_px

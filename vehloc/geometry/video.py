@@ -54,3 +54,16 @@ def read_still(path: Path | str, frame_index: int = 0) -> np.ndarray:
         if index == frame_index:
             return frame
     raise MediaError(f"{path}: has no frame {frame_index} (only {index + 1} frames)")
+
+
+def median_background(path: Path | str, frame_count: int, step: int = 10) -> np.ndarray:
+    """Per-pixel median of `frame_count` frames taken every `step` frames: the scene without traffic."""
+    frames = []
+    for index, frame in enumerate(iter_frames(path)):
+        if index % step == 0:
+            frames.append(frame)
+        if len(frames) == frame_count:
+            break
+    if len(frames) < frame_count:
+        raise MediaError(f"{path}: has {len(frames)} frame(s) at step {step}, {frame_count} asked for the background")
+    return np.median(np.stack(frames), axis=0).astype(np.uint8)

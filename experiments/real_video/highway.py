@@ -1,0 +1,112 @@
+"""Calibrate the real highway video from its site file and run the vehicle ROI extractor over it.
+
+    python experiments/real_video/highway.py --out outputs/highway
+
+Writes to the output folder: the calibration (JSON, overlay PNG), `roi_frames.png` (frames with the
+ROI boxes, for a person to check), `roi_boxes.csv` (every box of every frame), and `report.md`
+(calibration figures, plausibility checks of the homography, ROI counts).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pandas as pd
+from hydra import compose, initialize_config_dir
+
+from vehloc.geometry.calibrate_cli import run_calibration
+from vehloc.geometry.edges import apply_homography
+from vehloc.geometry.roi import RoiParams, VehicleRoiExtractor
+from vehloc.geometry.video import iter_frames
+
+PROJECT = Path(__file__).resolve().parents[2]
+VIDEO = PROJECT.parent / "shared" / "data" / "traffic" / "highway_320x240.avi"
+SITE = Path(__file__).resolve().parent / "highway_site.yaml"
+CALIBRATION_OVERRIDES = [
+    f"site={SITE}", f"image={VIDEO}", "background_frames=60", "mode=guess", "grid_step_mm=2000",
+    "calibration.pinhole_model=true", "calibration.edge_search_px=3", "calibration.edge_min_contrast=25",
+    "calibration.refine_rounds=5",
+]
+# Points on the face of the left curb, read off the median background by eye (px).
+LEFT_CURB_PX = np.array([[62.0, 160.0], [40.0, 178.0], [22.0, 190.0]])
+SHOWN_FRAMES = (300, 500, 800, 1200, 1500, 1650)
+
+
+def run_roi(out_dir: Path) -> pd.DataFrame:
+    """Boxes of every frame; a picture of the frames in SHOWN_FRAMES with their boxes."""
+    extractor = VehicleRoiExtractor(RoiParams(close_kernel_px=5))
+    rows, shown = [], []
+    for index, frame in enumerate(iter_frames(VIDEO)):
+        boxes = extractor.apply(frame)
+        rows += [{"frame": index, "x0": b.x0, "y0": b.y0, "x1": b.x1, "y1": b.y1} for b in boxes]
+        if index in SHOWN_FRAMES:
+            canvas = frame.copy()
+            for b in boxes:
+                cv2.rectangle(canvas, (b.x0, b.y0), (b.x1 - 1, b.y1 - 1), (0, 0, 255), 1)
+            cv2.putText(canvas, f"frame {index}", (4, 14), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (255, 255, 255), 1)
+            shown.append(canvas)
+    grid = np.vstack([np.hstack(shown[i:i + 3]) for i in range(0, len(shown), 3)])
+    cv2.imwrite(str(out_dir / "roi_frames.png"), grid)
+    boxes = pd.DataFrame(rows, columns=["frame", "x0", "y0", "x1", "y1"])
+    boxes.to_csv(out_dir / "roi_boxes.csv", index=False)
+    return boxes
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--out", type=Path, default=Path("outputs/highway"))
+    args = parser.parse_args()
+    args.out.mkdir(parents=True, exist_ok=True)
+
+    with initialize_config_dir(config_dir=str(PROJECT / "conf"), version_base="1.3"):
+        cfg = compose(config_name="calibrate", overrides=CALIBRATION_OVERRIDES)
+    summary = run_calibration(cfg, args.out)
+    homography = np.array(summary["homography_world_mm_to_image_px"])
+    to_road = np.linalg.inv(homography)
+    curb_mm = apply_homography(to_road, LEFT_CURB_PX)
+    dash_axis_px = apply_homography(homography, np.array([[0.0, y] for y in (0.0, 12192.0, 24384.0)]))
+    yellow_px = apply_homography(homography, np.array([[3658.0, y] for y in (0.0, 12192.0, 24384.0)]))
+    lane_px = np.linalg.norm(yellow_px - dash_axis_px, axis=1)
+
+    boxes = run_roi(args.out)
+    frames_total = sum(1 for _ in iter_frames(VIDEO))
+    learnt = boxes[boxes.frame >= 150]
+    frames_with_box = learnt.frame.nunique()
+    lines = [
+        "# Real video: highway_320x240.avi",
+        "",
+        "## Calibration (site file from US lane markings, refined on the marker edges)",
+        "",
+        f"- median distance of {summary['mode']}-mode edge points to their predicted marker edges: "
+        f"{summary['median_edge_px']:.2f} px",
+        f"- clicked guess points against the calibrated homography: RMS {summary['rms_reprojection_px']:.1f} px "
+        f"({summary['rms_road_error_mm']:.0f} mm on the road); the yellow-line points were clicked at the row of "
+        "a dash end and given its Y, which the view's skew makes only roughly right",
+        f"- camera recovered from the homography: focal {summary['focal_px']:.0f} px, height "
+        f"{summary['camera_height_mm'] / 1000:.2f} m, tilt {summary['camera_tilt_deg']:.1f} deg, "
+        f"{-summary['camera_centre_mm'][1] / 1000:.1f} m before the nearest dash",
+        f"- right lane (dashed line to yellow line, 12 ft = 3.66 m by the site) spans {', '.join(f'{v:.0f}' for v in lane_px)} px "
+        "at Y = 0, 12.2, 24.4 m",
+        "- plausibility, not used by the calibration: the left curb face lies at X = "
+        + ", ".join(f"{x / 1000:.2f} m (Y {y / 1000:.1f} m)" for x, y in curb_mm)
+        + ", i.e. the left lane measures that wide from the dashed line's centre",
+        "",
+        "## Vehicle ROI (MOG2, 3 Gaussians, 150-frame history, shadow removal)",
+        "",
+        f"- {frames_total} frames; after the 150-frame history, {frames_with_box} of {frames_total - 150} frames have "
+        f"at least one vehicle box, {len(learnt) / max(1, frames_total - 150):.2f} boxes per frame on average",
+        "- `roi_frames.png` shows frames " + ", ".join(map(str, SHOWN_FRAMES)) + " with their boxes",
+    ]
+    (args.out / "report.md").write_text("\n".join(lines) + "\n")
+    (args.out / "plausibility.json").write_text(
+        json.dumps({"left_curb_mm": curb_mm.tolist(), "right_lane_px": lane_px.tolist()}, indent=2)
+    )
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
