@@ -19,6 +19,13 @@ SHARED_DATA = PROJECT_ROOT.parent / "shared" / "data"
 
 
 @pytest.fixture(scope="session")
+def shared_data() -> Path:
+    if not SHARED_DATA.is_dir():
+        pytest.fail(f"real data missing: {SHARED_DATA} (the project expects ../shared/data beside it)")
+    return SHARED_DATA
+
+
+@pytest.fixture(scope="session")
 def stanford_root() -> Path:
     root = SHARED_DATA / "stanford_cars_12"
     if not root.is_dir():

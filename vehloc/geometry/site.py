@@ -185,7 +185,12 @@ def write_site(path: Path, site: Site) -> None:
     ]
     if site.stripes:
         content["stripes"] = [
-            {"id": s.stripe_id, "from_mm": list(s.start_mm), "to_mm": list(s.end_mm), "width_mm": s.width_mm}
+            {
+                "id": s.stripe_id,
+                "from_mm": [float(v) for v in s.start_mm],
+                "to_mm": [float(v) for v in s.end_mm],
+                "width_mm": float(s.width_mm),
+            }
             for s in site.stripes
         ]
     if site.guess_points:

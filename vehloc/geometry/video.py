@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
-import cv2
-import numpy as np
+os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")  # FFmpeg quiet: bad files are reported by vehloc, in one line
+
+import cv2  # noqa: E402 (after the FFmpeg log level, which is read when its backend loads)
+import numpy as np  # noqa: E402
 
 from vehloc.errors import VehlocError
 
@@ -17,12 +21,23 @@ class MediaError(VehlocError):
     """A video or image cannot be read."""
 
 
+@contextmanager
+def _opencv_errors_only() -> Iterator[None]:
+    previous = cv2.utils.logging.getLogLevel()
+    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
+    try:
+        yield
+    finally:
+        cv2.utils.logging.setLogLevel(previous)
+
+
 def iter_frames(path: Path | str) -> Iterator[np.ndarray]:
-    """Yield the BGR frames of a video; MediaError if it does not exist or yields no frame."""
+    """Yield the BGR frames of a video (FFmpeg backend); MediaError if it does not exist or yields no frame."""
     path = Path(path)
     if not path.is_file():
         raise MediaError(f"{path}: video does not exist")
-    capture = cv2.VideoCapture(str(path))
+    with _opencv_errors_only():
+        capture = cv2.VideoCapture(str(path), cv2.CAP_FFMPEG)
     try:
         ok, frame = capture.read()
         if not ok:
