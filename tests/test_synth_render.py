@@ -5,12 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from vehloc.geometry.camera import PinholeCamera
+from vehloc.geometry.camera import NEAR_PLANE_MM, PinholeCamera, clip_to_near_plane
 from vehloc.synth.catalog import model_by_id
 from vehloc.synth.render import (
-    NEAR_MM,
     CarPose,
-    clip_to_near_plane,
     fill_world_polygon,
     render_car,
     tight_box,
@@ -123,7 +121,7 @@ def test_rendering_is_deterministic_and_checks_its_inputs() -> None:
 def test_near_plane_clipping_and_road_polygons() -> None:
     square = np.array([[0.0, 0.0, -500.0], [100.0, 0.0, -500.0], [100.0, 0.0, 1000.0], [0.0, 0.0, 1000.0]])
     clipped = clip_to_near_plane(square)
-    assert len(clipped) == 4 and clipped[:, 2].min() == pytest.approx(NEAR_MM)
+    assert len(clipped) == 4 and clipped[:, 2].min() == pytest.approx(NEAR_PLANE_MM)
     assert len(clip_to_near_plane(square * np.array([1.0, 1.0, -1.0]) - [0, 0, 2000.0])) == 0
 
     camera = PinholeCamera.look_at([0.0, -6000.0, 1500.0], [0.0, 0.0, 0.0], 300.0, 320, 240)

@@ -25,6 +25,23 @@ def _rotation_from_angles(yaw_deg: float, pitch_deg: float, roll_deg: float) -> 
     return np.stack([rolled_right, rolled_down, forward])
 
 
+NEAR_PLANE_MM = 50.0
+
+
+def clip_to_near_plane(points_cam_mm: np.ndarray, near_mm: float = NEAR_PLANE_MM) -> np.ndarray:
+    """Clip a camera-frame polygon (N, 3) to z >= near_mm (Sutherland-Hodgman); may return no points."""
+    out = []
+    n = len(points_cam_mm)
+    for i in range(n):
+        a, b = points_cam_mm[i], points_cam_mm[(i + 1) % n]
+        a_in, b_in = a[2] >= near_mm, b[2] >= near_mm
+        if a_in:
+            out.append(a)
+        if a_in != b_in:
+            out.append(a + (b - a) * (near_mm - a[2]) / (b[2] - a[2]))
+    return np.array(out, dtype=float).reshape(-1, 3)
+
+
 def _as_points(points: np.ndarray, dim: int) -> np.ndarray:
     array = np.asarray(points, dtype=float)
     if array.ndim == 1:
@@ -141,6 +158,11 @@ class PinholeCamera:
     def project(self, points_mm: np.ndarray) -> np.ndarray:
         """World points (N, 3) mm -> pixels (N, 2); points at or behind the camera plane give NaN."""
         return self.project_camera(self.to_camera(points_mm))
+
+    def project_polygon(self, polygon_mm: np.ndarray, near_mm: float = NEAR_PLANE_MM) -> np.ndarray:
+        """World polygon (N, 3) mm -> its image polygon (M, 2) px, clipped to the near plane (M may be 0)."""
+        visible = clip_to_near_plane(self.to_camera(polygon_mm), near_mm)
+        return self.project_camera(visible) if len(visible) else np.zeros((0, 2))
 
     def road_homography(self) -> np.ndarray:
         """3x3 H mapping road-plane points (X, Y, 1) in mm to homogeneous pixels."""

@@ -12,17 +12,16 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from vehloc.geometry.camera import PinholeCamera
+from vehloc.geometry.camera import NEAR_PLANE_MM, PinholeCamera
 from vehloc.synth.body import Material, Mesh, build_car_mesh
 from vehloc.synth.catalog import RGB, CarModel
+from vehloc.synth.raster import SUBPIXEL_SHIFT, fill_polygon_px
 
 HEADING_CONVENTION = "heading_deg: angle from world +X to the car's front, counter-clockwise seen from above"
 """A car pose (x_mm, y_mm, heading_deg) puts the car-frame origin (centre of the footprint on the ground)
 at world (x_mm, y_mm, 0) and turns the car's front (+x of the car frame) from world +X by heading_deg,
 counter-clockwise seen from above (towards +Y); the car's +y (its left) follows, and +z stays up."""
 
-NEAR_MM = 50.0
-_SUBPIXEL_BITS = 4
 
 
 @dataclass(frozen=True)
@@ -135,32 +134,11 @@ def footprint_car_mm(model: CarModel) -> np.ndarray:
     return np.array([[hl, hw, 0.0], [hl, -hw, 0.0], [-hl, -hw, 0.0], [-hl, hw, 0.0]])
 
 
-def clip_to_near_plane(points_cam_mm: np.ndarray, near_mm: float = NEAR_MM) -> np.ndarray:
-    """Clip a camera-frame polygon (N, 3) to z >= near_mm (Sutherland-Hodgman); may return no points."""
-    out = []
-    n = len(points_cam_mm)
-    for i in range(n):
-        a, b = points_cam_mm[i], points_cam_mm[(i + 1) % n]
-        a_in, b_in = a[2] >= near_mm, b[2] >= near_mm
-        if a_in:
-            out.append(a)
-        if a_in != b_in:
-            out.append(a + (b - a) * (near_mm - a[2]) / (b[2] - a[2]))
-    return np.array(out).reshape(-1, 3)
-
-
 def fill_world_polygon(
     image: np.ndarray, camera: PinholeCamera, polygon_mm: np.ndarray, colour: tuple[float, ...]
 ) -> None:
     """Fill a world polygon (N, 3) into ``image`` (anti-aliased), clipped to the camera's near plane."""
-    clipped = clip_to_near_plane(camera.to_camera(polygon_mm))
-    if len(clipped) < 3:
-        return
-    pixels = camera.project_camera(clipped)
-    limit = 8.0 * max(image.shape[:2])
-    pixels = np.clip(pixels, -limit, limit)
-    points = np.round(pixels * (1 << _SUBPIXEL_BITS)).astype(np.int32)
-    cv2.fillPoly(image, [points], colour, cv2.LINE_AA, _SUBPIXEL_BITS)
+    fill_polygon_px(image, camera.project_polygon(polygon_mm), colour)
 
 
 def _face_colours(
@@ -257,10 +235,10 @@ def render_car(
     order = order[visible[order]]
 
     vertices_cam = camera.to_camera(vertices)
-    if vertices_cam[:, 2].min() < NEAR_MM:
+    if vertices_cam[:, 2].min() < NEAR_PLANE_MM:
         raise ValueError(f"{model.name} at {pose} is not entirely in front of the camera")
     pixels = camera.project_camera(vertices_cam)
-    points = np.round(((pixels + 0.5) * supersample - 0.5) * (1 << _SUBPIXEL_BITS)).astype(np.int32)
+    points = np.round(((pixels + 0.5) * supersample - 0.5) * (1 << SUBPIXEL_SHIFT)).astype(np.int32)
     colours = _face_colours(mesh, normals, centroids, camera_mm, lighting, body_rgb, model)
     colours4 = np.column_stack([colours, np.full(len(colours), 255.0)]).tolist()
 
@@ -268,7 +246,7 @@ def render_car(
     offsets = mesh.offsets
     for face in order.tolist():
         cv2.fillPoly(
-            layer, [points[offsets[face] : offsets[face + 1]]], colours4[face], cv2.LINE_8, _SUBPIXEL_BITS
+            layer, [points[offsets[face] : offsets[face + 1]]], colours4[face], cv2.LINE_8, SUBPIXEL_SHIFT
         )
     small = cv2.resize(layer, (width, height), interpolation=cv2.INTER_AREA).astype(np.float32)
     coverage = small[:, :, 3] / 255.0
