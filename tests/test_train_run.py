@@ -1,0 +1,165 @@
+"""Training runs on the tiny data set: fast_dev_run, overfitting a batch, resuming, DDP on CPU, multirun,
+and bad input giving one clear line and a non-zero exit."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import lightning as L
+import pandas as pd
+import pytest
+import torch
+
+from vehloc.train.instantiate import compose_config
+from vehloc.train.train import train
+
+PROJECT_ROOT = Path(__file__).resolve().parents[1]
+
+
+def tiny_overrides(root: Path, *extra: str) -> list[str]:
+    return [
+        f"data.root={root}", "data.input_size_px=32", "data.eval_resize_px=32", "data.batch_size=4",
+        "data.num_workers=0", "model.backbone.pretrained=none", "trainer.max_epochs=1",
+        "callbacks.model_summary.max_depth=0", *extra,
+    ]
+
+
+class KillMidEpoch(L.Callback):
+    """Stands in for a run killed during epoch `epoch`, after `batches` of its batches."""
+
+    def __init__(self, epoch: int, batches: int) -> None:
+        self.epoch, self.batches = epoch, batches
+
+    def on_train_batch_end(self, trainer, pl_module, outputs, batch, batch_idx) -> None:
+        if trainer.current_epoch == self.epoch and batch_idx + 1 == self.batches:
+            raise RuntimeError("killed")
+
+
+class RecordStart(L.Callback):
+    """Records the state the trainer starts fitting from."""
+
+    seen: dict = {}
+
+    def on_train_start(self, trainer, pl_module) -> None:
+        optimizer = trainer.optimizers[0]
+        RecordStart.seen = {
+            "epoch": trainer.current_epoch,
+            "global_step": trainer.global_step,
+            "momentum": {i: s["momentum_buffer"].clone() for i, s in enumerate(optimizer.state.values())},
+            "scheduler_last_epoch": trainer.lr_scheduler_configs[0].scheduler.last_epoch,
+            "fc_weight": pl_module.net.fc.weight.detach().clone(),
+        }
+
+
+def run_cli(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONWARNINGS": "ignore"}
+    return subprocess.run([sys.executable, *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=300)
+
+
+def error_lines(stderr: str, prog: str) -> list[str]:
+    return [line for line in stderr.splitlines() if line.startswith(f"{prog}: error:")]
+
+
+@pytest.mark.parametrize("extra", [[], ["model.channels_last=true", "trainer.precision=bf16-mixed",
+                                          "model.optimizer.name=adamw", "model.scheduler.name=step"]])
+def test_fast_dev_run_trains_tests_and_writes_table1(extra: list[str], tiny_root: Path, tmp_path: Path):
+    cfg = compose_config("train", tiny_overrides(tiny_root, "debug=fdr", *extra), tmp_path)
+    metrics, objects = train(cfg)
+    assert {"train/loss", "val/acc", "val/acc_best", "test/acc", "test/acc_top5", "test/dim_err_pct",
+            "test/dim_err_pct_expected"} <= set(metrics)
+    assert 0.0 <= metrics["test/acc"] <= metrics["test/acc_top5"] <= 1.0
+    table1 = pd.read_csv(tmp_path / "table1" / "table1.csv")
+    assert table1["model_id"].tolist() == [11, 12, 25] and table1["images"].tolist() == [1, 1, 1]
+    assert (tmp_path / "table1" / "confusion_matrix.png").is_file()
+    assert objects["trainer"].fast_dev_run
+
+
+def test_overfitting_one_batch_drives_the_loss_near_zero(tiny_root: Path, tmp_path: Path):
+    cfg = compose_config("train", tiny_overrides(
+        tiny_root, "debug=overfit", "trainer.max_epochs=40", "test=false", "data.batch_size=9",
+        "data.augment.crop_scale=[1.0,1.0]", "data.augment.hflip=false", "data.augment.color_jitter=0",
+        "model.optimizer.name=adamw", "model.optimizer.lr_backbone=0.002", "model.optimizer.lr_head=0.002",
+        "model.optimizer.weight_decay=0", "model.scheduler.name=none", "callbacks.model_checkpoint.monitor=null",
+    ), tmp_path)
+    metrics, _ = train(cfg)
+    history = pd.read_csv(tmp_path / "csv" / "metrics.csv")["train/loss"].dropna().to_numpy()
+    assert history[0] > 1.0  # main + 0.3 x two auxiliary cross-entropies of 3 classes
+    assert metrics["train/loss"] < 0.05
+
+
+def test_a_killed_run_resumes_from_last_with_optimizer_scheduler_and_epoch(tiny_root: Path, tmp_path: Path):
+    first = tmp_path / "first"
+    kill = ["+callbacks.kill._target_=test_train_run.KillMidEpoch", "+callbacks.kill.epoch=1",
+            "+callbacks.kill.batches=2"]
+    cfg = compose_config("train", tiny_overrides(tiny_root, "trainer.max_epochs=3", "data.batch_size=3", *kill), first)
+    with pytest.raises(RuntimeError, match="killed"):
+        train(cfg)
+    last = first / "checkpoints" / "last.ckpt"
+    saved = torch.load(last, map_location="cpu", weights_only=True)
+    assert saved["epoch"] == 0 and saved["global_step"] == 3  # epoch 0 (9 images, 3 a batch) completed
+    digest = hashlib.sha256(last.read_bytes()).hexdigest()
+    assert not list(first.glob("checkpoints/.*.tmp"))
+
+    second = tmp_path / "second"
+    record = ["+callbacks.record._target_=test_train_run.RecordStart"]
+    cfg = compose_config("train", tiny_overrides(
+        tiny_root, "trainer.max_epochs=3", "data.batch_size=3", f"ckpt_path={last}", *record), second)
+    _, objects = train(cfg)
+    seen = RecordStart.seen
+    assert seen["epoch"] == 1 and seen["global_step"] == 3
+    saved_state = saved["optimizer_states"][0]["state"]
+    assert len(seen["momentum"]) == len(saved_state) > 0
+    for index, buffer in enumerate(seen["momentum"].values()):
+        assert torch.equal(buffer, saved_state[index]["momentum_buffer"])
+    assert seen["scheduler_last_epoch"] == saved["lr_schedulers"][0]["last_epoch"] == 3
+    assert torch.equal(seen["fc_weight"], saved["state_dict"]["net.fc.weight"])
+    assert objects["trainer"].current_epoch == 3 and objects["trainer"].global_step == 9
+    resumed = pd.read_csv(second / "csv" / "metrics.csv")
+    assert sorted(resumed.dropna(subset=["train/loss"])["epoch"].astype(int)) == [1, 2]
+    assert hashlib.sha256(last.read_bytes()).hexdigest() == digest  # the source checkpoint is untouched
+
+
+def test_ddp_sim_trains_with_two_cpu_processes(tiny_root: Path, tmp_path: Path):
+    cfg = compose_config("train", tiny_overrides(tiny_root, "trainer=ddp_sim", "logger=csv"), tmp_path)
+    metrics, objects = train(cfg)
+    trainer = objects["trainer"]
+    assert trainer.world_size == 2 and trainer.strategy.__class__.__name__ == "DDPStrategy"
+    assert (tmp_path / "checkpoints" / "last.ckpt").is_file()
+    assert "test/acc" in metrics
+    # the test split is gathered from both processes: every image once
+    assert pd.read_csv(tmp_path / "table1" / "predictions.csv")["image"].nunique() == 3
+
+
+def test_multirun_sweeps_two_runs(tiny_root: Path, tmp_path: Path):
+    sweep_dir = tmp_path / "sweep"
+    result = run_cli(
+        "-m", "vehloc.train.train", "-m", *tiny_overrides(tiny_root, "debug=fdr"),
+        "model.optimizer.lr_head=0.01,0.02", f"hydra.sweep.dir={sweep_dir}", cwd=tmp_path,
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    for job in ("0", "1"):
+        assert (sweep_dir / job / "table1" / "report.md").is_file()
+    overrides = [(sweep_dir / job / ".hydra" / "overrides.yaml").read_text() for job in ("0", "1")]
+    assert "lr_head=0.01" in overrides[0] and "lr_head=0.02" in overrides[1]
+
+
+def test_missing_data_root_is_one_line_and_exit_1(tmp_path: Path):
+    result = run_cli("-m", "vehloc.train.train", f"data.root={tmp_path / 'absent'}", cwd=tmp_path)
+    assert result.returncode == 1
+    lines = error_lines(result.stderr, "vehloc-train")
+    assert len(lines) == 1 and "absent: no such folder" in lines[0]
+    assert "Traceback" not in result.stderr
+
+
+def test_specs_lacking_a_class_stops_training(tiny_root: Path, tmp_path: Path):
+    specs = tiny_root / "specs.csv"
+    specs.write_text("\n".join(line for line in specs.read_text().splitlines() if not line.startswith("12,")) + "\n")
+    result = run_cli("-m", "vehloc.train.train", *tiny_overrides(tiny_root), cwd=tmp_path)
+    assert result.returncode == 1
+    assert "no dimensions for 1 class" in error_lines(result.stderr, "vehloc-train")[0]
+    assert "model 12 (Beta)" in result.stderr and "Traceback" not in result.stderr
+    assert not list(tmp_path.rglob("*.ckpt"))

@@ -1,0 +1,152 @@
+"""LightningDataModule over a CompCars-format root: ROI crops, augmentation, samplers, splits."""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Sequence
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import lightning as L
+import numpy as np
+import torch
+from torch.utils.data import DataLoader, WeightedRandomSampler
+
+from vehloc.data.compcars import CompCarsSample, CompCarsSet, read_compcars
+from vehloc.data.specs import SpecsTable, read_specs_csv
+from vehloc.errors import DataError
+from vehloc.train.dataset import CompCarsCrops
+from vehloc.train.transforms import eval_transform, train_transform
+
+
+def carve_validation(labels: Sequence[int], val_fraction: float, seed: int) -> tuple[list[int], list[int]]:
+    """Stratified split of train indices into (train, val): `val_fraction` of each class, at least one
+    image of every class with two or more images."""
+    rng = np.random.default_rng(seed)
+    by_class: dict[int, list[int]] = {}
+    for index, label in enumerate(labels):
+        by_class.setdefault(label, []).append(index)
+    train_idx, val_idx = [], []
+    for label in sorted(by_class):
+        members = rng.permutation(by_class[label]).tolist()
+        n_val = min(len(members) - 1, max(1, round(val_fraction * len(members))))
+        val_idx += members[:n_val]
+        train_idx += members[n_val:]
+    return sorted(train_idx), sorted(val_idx)
+
+
+class CompCarsDataModule(L.LightningDataModule):
+    """Train/val/test loaders of enlarged vehicle ROIs from a CompCars-format root.
+
+    Validation uses `val_fraction` of train (stratified) when it is above 0, else the test split.
+    """
+
+    def __init__(
+        self,
+        root: str,
+        specs_csv: str | None = None,
+        input_size_px: int = 224,
+        eval_resize_px: int | None = None,
+        roi_enlarge_fraction: float = 0.10,
+        augment: dict[str, Any] | None = None,
+        batch_size: int = 32,
+        eval_batch_size: int | None = None,
+        num_workers: int = 2,
+        pin_memory: bool = False,
+        balanced_sampling: bool = False,
+        val_fraction: float = 0.0,
+        seed: int = 0,
+    ) -> None:
+        super().__init__()
+        self.save_hyperparameters(logger=False)
+        self.root = Path(root)
+        self.specs_path = Path(specs_csv) if specs_csv else self.root / "specs.csv"
+        self.augment = dict(augment or {})
+        self.train_set: CompCarsCrops | None = None
+        self.val_set: CompCarsCrops | None = None
+        self.test_set: CompCarsCrops | None = None
+
+    @cached_property
+    def dataset(self) -> CompCarsSet:
+        if not self.root.is_dir():
+            raise DataError(
+                f"data.root {self.root}: no such folder (write the demo set with "
+                f"`vehloc-data make-demo {self.root}`, or pass data.root=PATH)"
+            )
+        return read_compcars(self.root)
+
+    @cached_property
+    def specs(self) -> SpecsTable:
+        specs = read_specs_csv(self.specs_path)
+        specs.require(self.dataset.model_ids, self.dataset.model_names)
+        return specs
+
+    def class_info(self) -> dict[str, list]:
+        """Model ids, make and model names and (L, W, H) in mm of the classes, in class-index order."""
+        table = self.dataset.class_table()
+        return {
+            "class_model_ids": [int(row["model_id"]) for row in table],
+            "class_makes": [str(row["make"]) for row in table],
+            "class_models": [str(row["model"]) for row in table],
+            "class_dims_mm": self.specs.dims_mm(self.dataset.model_ids).tolist(),
+        }
+
+    def _crops(self, samples: Sequence[CompCarsSample], labels: Sequence[int], train: bool) -> CompCarsCrops:
+        hp = self.hparams
+        transform = (
+            train_transform(hp.input_size_px, **self.augment)
+            if train
+            else eval_transform(hp.input_size_px, hp.eval_resize_px)
+        )
+        return CompCarsCrops(samples, labels, transform, hp.roi_enlarge_fraction)
+
+    def setup(self, stage: str | None = None) -> None:
+        if self.test_set is not None:
+            return
+        data = self.dataset
+        self.specs.require(data.model_ids, data.model_names)
+        train_samples, train_labels = data.train, data.labels("train")
+        test_samples, test_labels = data.test, data.labels("test")
+        if self.hparams.val_fraction > 0:
+            keep, held_out = carve_validation(train_labels, self.hparams.val_fraction, self.hparams.seed)
+            val_samples = [train_samples[i] for i in held_out]
+            val_labels = [train_labels[i] for i in held_out]
+            train_samples = [train_samples[i] for i in keep]
+            train_labels = [train_labels[i] for i in keep]
+        else:
+            val_samples, val_labels = test_samples, test_labels
+        self.train_set = self._crops(train_samples, train_labels, train=True)
+        self.val_set = self._crops(val_samples, val_labels, train=False)
+        self.test_set = self._crops(test_samples, test_labels, train=False)
+
+    def _loader(self, dataset: CompCarsCrops, batch_size: int, shuffle: bool, sampler=None,
+                drop_last: bool = False) -> DataLoader:
+        workers = self.hparams.num_workers
+        return DataLoader(
+            dataset,
+            batch_size=batch_size,
+            shuffle=shuffle and sampler is None,
+            sampler=sampler,
+            num_workers=workers,
+            pin_memory=self.hparams.pin_memory,
+            persistent_workers=workers > 0,
+            drop_last=drop_last,
+        )
+
+    def _balanced_sampler(self, labels: Sequence[int]) -> WeightedRandomSampler:
+        counts = Counter(labels)
+        weights = torch.tensor([1.0 / counts[label] for label in labels], dtype=torch.double)
+        return WeightedRandomSampler(weights, num_samples=len(labels), replacement=True)
+
+    def train_dataloader(self) -> DataLoader:
+        sampler = self._balanced_sampler(self.train_set.labels) if self.hparams.balanced_sampling else None
+        # a last batch of one image would break batch normalisation in training
+        return self._loader(self.train_set, self.hparams.batch_size, shuffle=True, sampler=sampler,
+                            drop_last=len(self.train_set) > self.hparams.batch_size)
+
+    def val_dataloader(self) -> DataLoader:
+        return self._loader(self.val_set, self.hparams.eval_batch_size or self.hparams.batch_size, shuffle=False)
+
+    def test_dataloader(self) -> DataLoader:
+        return self._loader(self.test_set, self.hparams.eval_batch_size or self.hparams.batch_size, shuffle=False)

@@ -1,0 +1,69 @@
+"""Building the run's objects from the Hydra config: data, model, callbacks, loggers, trainer."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import hydra
+import lightning as L
+from hydra import compose, initialize_config_dir
+from hydra.core.hydra_config import HydraConfig
+from lightning.pytorch.loggers import Logger
+from omegaconf import DictConfig, OmegaConf, open_dict
+
+from vehloc.errors import VehlocError
+from vehloc.train.datamodule import CompCarsDataModule
+from vehloc.train.module import VehicleClassifier
+
+CONF_DIR = Path(__file__).resolve().parents[2] / "conf"
+
+
+def compose_config(config_name: str, overrides: Sequence[str] = (), output_dir: str | Path = ".") -> DictConfig:
+    """Compose `conf/<config_name>.yaml` with overrides outside a Hydra app (notebooks, tests), with
+    `paths.output_dir` as the run folder."""
+    with initialize_config_dir(version_base="1.3", config_dir=str(CONF_DIR), job_name=config_name):
+        cfg = compose(config_name, overrides=list(overrides), return_hydra_config=True)
+    HydraConfig.instance().set_config(cfg)
+    with open_dict(cfg):
+        cfg.paths.output_dir = str(Path(output_dir).resolve())
+        del cfg["hydra"]
+    return cfg
+
+
+def _instantiate_group(group: DictConfig | None, kind: str) -> list[Any]:
+    if not group:
+        return []
+    if not isinstance(group, DictConfig):
+        raise VehlocError(f"{kind} config must be a mapping of named entries")
+    entries = [entry for entry in group.values() if isinstance(entry, DictConfig) and "_target_" in entry]
+    return [hydra.utils.instantiate(entry) for entry in entries]
+
+
+def instantiate_callbacks(cfg: DictConfig | None) -> list[L.Callback]:
+    return _instantiate_group(cfg, "callbacks")
+
+
+def instantiate_loggers(cfg: DictConfig | None) -> list[Logger]:
+    return _instantiate_group(cfg, "logger")
+
+
+def instantiate_data_and_model(cfg: DictConfig) -> tuple[CompCarsDataModule, VehicleClassifier]:
+    """The datamodule (data set and specs validated) and a model built for its classes."""
+    if OmegaConf.is_missing(cfg.data, "root") or cfg.data.root is None:
+        raise VehlocError("data.root=PATH is required: a CompCars-format data set")
+    datamodule: CompCarsDataModule = hydra.utils.instantiate(cfg.data, _convert_="all")
+    model: VehicleClassifier = hydra.utils.instantiate(cfg.model, **datamodule.class_info(), _convert_="all")
+    return datamodule, model
+
+
+def instantiate_trainer(cfg: DictConfig, callbacks: list[L.Callback], loggers: list[Logger]) -> L.Trainer:
+    return hydra.utils.instantiate(cfg.trainer, callbacks=callbacks, logger=loggers or False)
+
+
+def log_hyperparameters(cfg: DictConfig, loggers: list[Logger]) -> None:
+    """Send the resolved run config to every logger."""
+    config = OmegaConf.to_container(cfg, resolve=True)
+    for logger in loggers:
+        logger.log_hyperparams(config)

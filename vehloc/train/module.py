@@ -1,0 +1,194 @@
+"""The LightningModule: a backbone classifier over vehicle ROIs with one shared step and per-split metrics."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import lightning as L
+import torch
+import torch.nn.functional as F
+from torchmetrics import MaxMetric, MeanMetric
+
+from vehloc.errors import VehlocError
+from vehloc.train.backbones import build_backbone
+from vehloc.train.metrics import split_metrics
+from vehloc.train.schedules import build_optimizer, build_schedule, param_groups
+
+
+class VehicleClassifier(L.LightningModule):
+    """Fine-grained vehicle-model classifier; input RGB float in [0, 1], output class logits.
+
+    Hyperparameters are plain values (no objects), so checkpoints load with `weights_only=True` and carry
+    the class table (model ids, names, dimensions in mm) with them.
+    """
+
+    def __init__(
+        self,
+        class_model_ids: list[int],
+        class_makes: list[str],
+        class_models: list[str],
+        class_dims_mm: list[list[float]],
+        backbone: dict[str, Any],
+        optimizer: dict[str, Any],
+        scheduler: dict[str, Any],
+        aux_loss_weight: float = 0.3,
+        label_smoothing: float = 0.0,
+        channels_last: bool = False,
+        expected_top_k: int = 5,
+        input_size_px: int = 224,
+        eval_resize_px: int | None = None,
+        roi_enlarge_fraction: float = 0.10,
+    ) -> None:
+        super().__init__()
+        self.save_hyperparameters(logger=False)
+        self.hparams.eval_resize_px = eval_resize_px or input_size_px
+        num_classes = len(class_model_ids)
+        if not (len(class_makes) == len(class_models) == len(class_dims_mm) == num_classes):
+            raise VehlocError(
+                f"class table mismatch: {num_classes} model ids, {len(class_makes)} makes, "
+                f"{len(class_models)} models, {len(class_dims_mm)} dimension rows"
+            )
+        built = build_backbone(num_classes=num_classes, **backbone)
+        self.net = built.net
+        self.head_prefixes = tuple(f"net.{name}" for name in built.head_names)
+        self.register_buffer("mean", torch.tensor(built.mean).view(1, 3, 1, 1), persistent=False)
+        self.register_buffer("std", torch.tensor(built.std).view(1, 3, 1, 1), persistent=False)
+        if channels_last:
+            self.net = self.net.to(memory_format=torch.channels_last)
+        self.train_loss = MeanMetric()
+        self.val_loss = MeanMetric()
+        self.test_loss = MeanMetric()
+        self.train_metrics = split_metrics(num_classes, None, "train/")
+        self.val_metrics = split_metrics(num_classes, class_dims_mm, "val/", expected_top_k)
+        self.test_metrics = split_metrics(num_classes, class_dims_mm, "test/", expected_top_k)
+        self.val_acc_best = MaxMetric()
+
+    @property
+    def num_classes(self) -> int:
+        return len(self.hparams.class_model_ids)
+
+    @property
+    def class_names(self) -> list[str]:
+        return [display_name(make, model) for make, model in zip(self.hparams.class_makes, self.hparams.class_models)]
+
+    def _outputs(self, images: torch.Tensor) -> tuple[torch.Tensor, tuple[torch.Tensor, ...]]:
+        x = (images - self.mean) / self.std
+        if self.hparams.channels_last:
+            x = x.contiguous(memory_format=torch.channels_last)
+        out = self.net(x)
+        if isinstance(out, tuple):
+            return out[0], tuple(out[1:])
+        return out, ()
+
+    def forward(self, images: torch.Tensor) -> torch.Tensor:
+        """Class logits (N, C) of a batch of RGB images in [0, 1]."""
+        return self._outputs(images)[0]
+
+    def model_step(self, batch: tuple[torch.Tensor, ...]) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """Loss (main + aux_loss_weight x each auxiliary head in training), logits and targets of a batch."""
+        images, targets = batch[0], batch[1]
+        logits, aux = self._outputs(images)
+        smoothing = self.hparams.label_smoothing
+        loss = F.cross_entropy(logits, targets, label_smoothing=smoothing)
+        for aux_logits in aux:
+            loss = loss + self.hparams.aux_loss_weight * F.cross_entropy(aux_logits, targets, label_smoothing=smoothing)
+        return loss, logits, targets
+
+    def on_train_start(self) -> None:
+        self.val_loss.reset()
+        self.val_metrics.reset()
+        self.val_acc_best.reset()
+
+    def training_step(self, batch: tuple[torch.Tensor, ...], batch_idx: int) -> torch.Tensor:
+        loss, logits, targets = self.model_step(batch)
+        self.train_loss(loss)
+        self.train_metrics(logits.detach(), targets)
+        self.log("train/loss", self.train_loss, on_step=False, on_epoch=True, prog_bar=True)
+        self.log_dict(self.train_metrics, on_step=False, on_epoch=True, prog_bar=False)
+        return loss
+
+    def validation_step(self, batch: tuple[torch.Tensor, ...], batch_idx: int) -> None:
+        loss, logits, targets = self.model_step(batch)
+        self.val_loss(loss)
+        self.val_metrics.update(logits, targets)
+        self.log("val/loss", self.val_loss, on_step=False, on_epoch=True, prog_bar=True)
+
+    def on_validation_epoch_end(self) -> None:
+        values = self.val_metrics.compute()
+        self.val_metrics.reset()
+        acc = values.pop("val/acc")
+        self.val_acc_best(acc)
+        self.log_dict(values)
+        self.log("val/acc", acc, prog_bar=True)
+        self.log("val/acc_best", self.val_acc_best.compute(), prog_bar=True)
+
+    def test_step(self, batch: tuple[torch.Tensor, ...], batch_idx: int) -> dict[str, torch.Tensor]:
+        loss, logits, targets = self.model_step(batch)
+        self.test_loss(loss)
+        self.test_metrics.update(logits, targets)
+        self.log("test/loss", self.test_loss, on_step=False, on_epoch=True)
+        return {"probs": logits.float().softmax(dim=1), "targets": targets, "indices": batch[2]}
+
+    def on_test_epoch_end(self) -> None:
+        self.log_dict(self.test_metrics.compute())
+        self.test_metrics.reset()
+
+    def configure_optimizers(self) -> dict[str, Any]:
+        opt = dict(self.hparams.optimizer)
+        groups = param_groups(
+            self.named_parameters(), self.head_prefixes, opt.pop("lr_backbone"), opt.pop("lr_head"),
+            opt.pop("weight_decay", 0.0),
+        )
+        optimizer = build_optimizer(groups, **opt)
+        total_steps = int(self.trainer.estimated_stepping_batches)
+        steps_per_epoch = max(1, total_steps // max(1, self.trainer.max_epochs or 1))
+        factor = build_schedule(total_steps=total_steps, steps_per_epoch=steps_per_epoch, **self.hparams.scheduler)
+        if factor is None:
+            return {"optimizer": optimizer}
+        scheduler = torch.optim.lr_scheduler.LambdaLR(optimizer, factor)
+        return {"optimizer": optimizer, "lr_scheduler": {"scheduler": scheduler, "interval": "step"}}
+
+
+def display_name(make: str, model: str) -> str:
+    """`make model`, without repeating a make that the model name already starts with."""
+    return model if model.startswith(make) else f"{make} {model}".strip()
+
+
+def read_checkpoint(path: str | Path) -> dict[str, Any]:
+    """A Lightning checkpoint of VehicleClassifier, loaded with `weights_only=True`."""
+    path = Path(path)
+    if not path.is_file():
+        raise VehlocError(f"ckpt_path {path}: no such checkpoint file")
+    try:
+        checkpoint = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as exc:  # noqa: BLE001 - any unreadable file is a user error here
+        raise VehlocError(f"{path}: not a readable checkpoint ({exc})") from None
+    if "state_dict" not in checkpoint or "class_model_ids" not in checkpoint.get("hyper_parameters", {}):
+        raise VehlocError(f"{path}: not a vehloc classifier checkpoint (no state_dict and class table)")
+    return checkpoint
+
+
+def load_classifier(checkpoint: dict[str, Any], **overrides: Any) -> VehicleClassifier:
+    """Rebuild the classifier of a checkpoint (backbone not re-initialised from pretrained weights; hparams
+    in `overrides` replaced) and load its weights."""
+    hparams = {**checkpoint["hyper_parameters"], **overrides}
+    hparams["backbone"] = {**hparams["backbone"], "pretrained": "none"}
+    model = VehicleClassifier(**hparams)
+    model.load_state_dict(checkpoint["state_dict"])
+    return model
+
+
+def check_classes(checkpoint: dict[str, Any], class_model_ids: list[int], path: str | Path) -> None:
+    """Raise VehlocError unless the checkpoint was trained on exactly these classes (model ids, in order)."""
+    trained = list(checkpoint["hyper_parameters"]["class_model_ids"])
+    if trained != list(class_model_ids):
+        raise VehlocError(
+            f"{path}: checkpoint has {len(trained)} classes (model ids {_abbrev(trained)}), "
+            f"the data set has {len(class_model_ids)} (model ids {_abbrev(class_model_ids)})"
+        )
+
+
+def _abbrev(ids: list[int], shown: int = 6) -> str:
+    head = ", ".join(map(str, ids[:shown]))
+    return head + (f", ... ({len(ids)} in all)" if len(ids) > shown else "")

@@ -1,0 +1,61 @@
+"""`vehloc-train`: fine-tune a vehicle-model classifier (Hydra config `conf/train.yaml`), then test it and
+write Table 1 into the run folder. Example: `vehloc-train experiment=demo`."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import hydra
+import lightning as L
+from lightning.pytorch.utilities import rank_zero_info
+from omegaconf import DictConfig
+
+from vehloc.errors import exit_on_error
+from vehloc.train.instantiate import (
+    CONF_DIR,
+    instantiate_callbacks,
+    instantiate_data_and_model,
+    instantiate_loggers,
+    instantiate_trainer,
+    log_hyperparameters,
+)
+from vehloc.train.module import check_classes, read_checkpoint
+
+
+def train(cfg: DictConfig) -> tuple[dict[str, float], dict[str, Any]]:
+    """Fit (optionally resuming from `ckpt_path`) and test with the best checkpoint; return the metrics and
+    the objects of the run."""
+    if cfg.get("seed") is not None:
+        L.seed_everything(cfg.seed, workers=True)
+    datamodule, model = instantiate_data_and_model(cfg)
+    if cfg.get("ckpt_path"):
+        check_classes(read_checkpoint(cfg.ckpt_path), model.hparams.class_model_ids, cfg.ckpt_path)
+    callbacks = instantiate_callbacks(cfg.get("callbacks"))
+    loggers = instantiate_loggers(cfg.get("logger"))
+    trainer = instantiate_trainer(cfg, callbacks, loggers)
+    log_hyperparameters(cfg, loggers)
+    if cfg.get("train"):
+        trainer.fit(model, datamodule=datamodule, ckpt_path=cfg.get("ckpt_path"), weights_only=True)
+    metrics = {k: float(v) for k, v in trainer.callback_metrics.items()}
+    if cfg.get("test"):
+        best = trainer.checkpoint_callback.best_model_path if trainer.checkpoint_callback else ""
+        rank_zero_info(f"testing {'checkpoint ' + best if best else 'the current weights'}")
+        trainer.test(model, datamodule=datamodule, ckpt_path=best or None, weights_only=True)
+        metrics |= {k: float(v) for k, v in trainer.callback_metrics.items()}
+    objects = {"cfg": cfg, "datamodule": datamodule, "model": model, "trainer": trainer, "callbacks": callbacks}
+    return metrics, objects
+
+
+@exit_on_error("vehloc-train")
+def _run(cfg: DictConfig) -> float | None:
+    metrics, _ = train(cfg)
+    return metrics.get(cfg.get("optimized_metric") or "")
+
+
+@hydra.main(version_base="1.3", config_path=str(CONF_DIR), config_name="train")
+def main(cfg: DictConfig) -> float | None:
+    return _run(cfg)
+
+
+if __name__ == "__main__":
+    main()
