@@ -1,0 +1,181 @@
+"""ONNX export (checks, parity, metadata, atomic write) and the onnxruntime classifier."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import onnx
+import pytest
+import torch
+from onnx import TensorProto, helper
+
+from vehloc.data.compcars import read_compcars
+from vehloc.infer.classifier import VehicleClassifier
+from vehloc.infer.export import ExportError, export_checkpoint, file_sha256, roi_crops
+from vehloc.infer.metadata import ModelFileError
+from vehloc.infer.predict_cli import main as predict_main
+from vehloc.infer.preprocess import ImageInputError
+from vehloc.synth.demo_set import make_demo_set
+from vehloc.train.instantiate import compose_config
+from vehloc.train.module import load_classifier, read_checkpoint
+from vehloc.train.train import train
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """A GoogLeNet trained briefly on a small demo set: (data root, best checkpoint)."""
+    folder = tmp_path_factory.mktemp("infer")
+    root = make_demo_set(folder / "demo", per_model=8, seed=3, workers=1)
+    cfg = compose_config(
+        "train",
+        [
+            "experiment=demo", f"data.root={root}", "data.input_size_px=64", "data.eval_resize_px=72",
+            "data.num_workers=0", "trainer.max_epochs=2", "logger=[]", "callbacks.model_summary.max_depth=0",
+            "test=false",
+        ],
+        output_dir=folder / "run",
+    )
+    _, objects = train(cfg)
+    return root, Path(objects["trainer"].checkpoint_callback.best_model_path)
+
+
+@pytest.fixture(scope="module")
+def exported(trained: tuple[Path, Path], tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, object]:
+    root, checkpoint = trained
+    crops = roi_crops(read_compcars(root).test, 0.10)
+    output = tmp_path_factory.mktemp("onnx") / "model.onnx"
+    return output, export_checkpoint(checkpoint, output, crops)
+
+
+def test_export_passes_parity_on_real_images(exported: tuple[Path, object]) -> None:
+    """Tolerance (issue): max |logit diff| <= 1e-4 and the same top-1 on every test image."""
+    output, report = exported
+    assert output.is_file() and report.parity_images == 24
+    assert report.max_abs_logit_diff <= 1e-4 and report.top1_agreement == 1.0
+    model = onnx.load(str(output))
+    onnx.checker.check_model(model, full_check=True)
+    assert max(o.version for o in model.opset_import if o.domain in ("", "ai.onnx")) >= 17
+    assert not list(output.parent.glob(".*.tmp"))
+
+
+def test_metadata_round_trip(trained: tuple[Path, Path], exported: tuple[Path, object]) -> None:
+    _, checkpoint_path = trained
+    output, _ = exported
+    hp = read_checkpoint(checkpoint_path)["hyper_parameters"]
+    meta = VehicleClassifier.from_onnx(output).metadata
+    assert [c.model_id for c in meta.classes] == hp["class_model_ids"]
+    assert [c.make for c in meta.classes] == hp["class_makes"] and [c.model for c in meta.classes] == hp["class_models"]
+    np.testing.assert_allclose(meta.dims_mm, hp["class_dims_mm"])
+    assert (meta.input_size_px, meta.resize_px, meta.roi_enlarge_fraction) == (64, 72, 0.10)
+    assert meta.colour_order == "RGB" and meta.backbone == "googlenet"
+    assert meta.source_checkpoint_sha256 == file_sha256(checkpoint_path)
+    assert meta.classes[0].make == "BMW" and meta.classes[0].length_mm == 5250
+
+
+def test_dynamic_batch_and_predictions(trained: tuple[Path, Path], exported: tuple[Path, object]) -> None:
+    root, _ = trained
+    classifier = VehicleClassifier.from_onnx(exported[0])
+    crops = roi_crops(read_compcars(root).test[:7], 0.10)
+    one_by_one = np.concatenate([classifier.probabilities([c]) for c in crops])
+    np.testing.assert_allclose(classifier.probabilities(crops, batch_size=4), one_by_one, atol=1e-5)
+    prediction = classifier.predict(crops[:1], top_k=3)[0]
+    assert len(prediction.top_k) == 3 and prediction.top_k[0].probability >= prediction.top_k[1].probability
+    top1 = next(c for c in classifier.classes if c.model_id == prediction.top1.model_id)
+    np.testing.assert_allclose(prediction.top1_dims_mm, [top1.length_mm, top1.width_mm, top1.height_mm])
+    assert np.all(classifier.metadata.dims_mm.min(0) <= prediction.expected_dims_mm)
+    assert np.all(prediction.expected_dims_mm <= classifier.metadata.dims_mm.max(0))
+
+
+def test_classifier_agrees_with_the_lightning_model(trained: tuple[Path, Path], exported: tuple[Path, object]) -> None:
+    """On the demo test split: identical inputs give the same probabilities (1e-4); through each side's
+    own preprocessing (torchvision vs OpenCV resizing) the top-1 agrees on >= 90 % of the images."""
+    root, checkpoint_path = trained
+    model = load_classifier(read_checkpoint(checkpoint_path)).eval()
+    classifier = VehicleClassifier.from_onnx(exported[0])
+    test = read_compcars(root).test
+    crops = roi_crops(test, 0.10)
+    from vehloc.infer.preprocess import to_input
+
+    inputs = np.stack([to_input(c, 72, 64) for c in crops])
+    with torch.no_grad():
+        eager = torch.softmax(model(torch.from_numpy(inputs)), dim=1).numpy()
+    np.testing.assert_allclose(classifier.probabilities(crops), eager, atol=1e-4)
+
+    from vehloc.train.dataset import CompCarsCrops
+    from vehloc.train.transforms import eval_transform
+
+    dataset = CompCarsCrops(test, [0] * len(test), eval_transform(64, 72), 0.10)
+    with torch.no_grad():
+        lightning_top1 = model(torch.stack([dataset[i][0] for i in range(len(test))])).argmax(1).numpy()
+    agreement = np.mean(lightning_top1 == classifier.probabilities(crops).argmax(1))
+    assert agreement >= 0.9
+
+
+def test_failed_export_leaves_the_good_file(trained: tuple[Path, Path], exported: tuple[Path, object]) -> None:
+    root, checkpoint = trained
+    output, _ = exported
+    before = output.read_bytes()
+    with pytest.raises(ExportError, match="left unchanged"):
+        export_checkpoint(checkpoint, output, roi_crops(read_compcars(root).test[:4], 0.10), tolerance=-1.0)
+    assert output.read_bytes() == before and not list(output.parent.glob(".*.tmp"))
+    with pytest.raises(ExportError, match="opset 16 is below 17"):
+        export_checkpoint(checkpoint, output, [], opset=16)
+
+
+def test_model_file_errors(tmp_path: Path) -> None:
+    with pytest.raises(ModelFileError, match="model file does not exist"):
+        VehicleClassifier.from_onnx(tmp_path / "none.onnx")
+    (tmp_path / "corrupt.onnx").write_bytes(b"\x08\x07garbage")
+    with pytest.raises(ModelFileError, match="not a loadable ONNX model"):
+        VehicleClassifier.from_onnx(tmp_path / "corrupt.onnx")
+    graph = helper.make_graph(
+        [helper.make_node("Identity", ["x"], ["y"])], "plain",
+        [helper.make_tensor_value_info("x", TensorProto.FLOAT, [1])], [helper.make_tensor_value_info("y", TensorProto.FLOAT, [1])],
+    )
+    plain = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)], ir_version=8)
+    onnx.save(plain, str(tmp_path / "plain.onnx"))
+    with pytest.raises(ModelFileError, match="without vehloc metadata"):
+        VehicleClassifier.from_onnx(tmp_path / "plain.onnx")
+
+
+def test_image_input_errors(exported: tuple[Path, object], tmp_path: Path) -> None:
+    classifier = VehicleClassifier.from_onnx(exported[0])
+    (tmp_path / "notes.txt").write_text("not an image")
+    with pytest.raises(ImageInputError, match="notes.txt: not a readable image"):
+        classifier.predict([tmp_path / "notes.txt"])
+    with pytest.raises(ImageInputError, match="expected a colour BGR image"):
+        classifier.predict([np.zeros((40, 40), np.uint8)])
+    cv2.imwrite(str(tmp_path / "grey.png"), np.zeros((40, 40), np.uint8))
+    with pytest.raises(ImageInputError, match="grey.png: expected a colour BGR image"):
+        classifier.predict([tmp_path / "grey.png"])
+    with pytest.raises(ImageInputError, match="1x1 px is too small"):
+        classifier.predict([np.zeros((1, 1, 3), np.uint8)])
+
+
+def test_predict_cli(trained: tuple[Path, Path], exported: tuple[Path, object], tmp_path: Path, capsys) -> None:
+    root, _ = trained
+    images = [s.image_path for s in read_compcars(root).test[:2]]
+    assert predict_main(["--model", str(exported[0]), *map(str, images), "--top-k", "2", "--csv", str(tmp_path / "p.csv")]) == 0
+    out = capsys.readouterr().out
+    assert "probability" in out and str(images[0]) in out
+    assert len((tmp_path / "p.csv").read_text().splitlines()) == 1 + 2 * 2
+
+
+def test_export_cli(trained: tuple[Path, Path], tmp_path: Path) -> None:
+    root, checkpoint = trained
+    run = subprocess.run(
+        [sys.executable, "-m", "vehloc.infer.export_cli", f"ckpt_path={checkpoint}", f"output={tmp_path / 'm.onnx'}",
+         f"data_root={root}", "parity_images=8", f"hydra.run.dir={tmp_path / 'run'}"],
+        capture_output=True, text=True,
+    )
+    assert run.returncode == 0, run.stderr
+    assert "same top-1 on 100%" in run.stdout and (tmp_path / "m.onnx").is_file()
+    missing = subprocess.run(
+        [sys.executable, "-m", "vehloc.infer.export_cli", f"ckpt_path={tmp_path / 'none.ckpt'}", f"hydra.run.dir={tmp_path / 'run2'}"],
+        capture_output=True, text=True,
+    )
+    assert missing.returncode == 1 and "vehloc-export: error:" in missing.stderr and "no such checkpoint" in missing.stderr

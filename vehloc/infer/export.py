@@ -1,0 +1,154 @@
+"""Export a trained classifier checkpoint to one self-contained ONNX file, checked before it lands.
+
+The eval-mode model (single output, no auxiliary heads) with its normalisation and a softmax goes to
+ONNX with a dynamic batch axis; the file gets the vehloc metadata, passes
+`onnx.checker.check_model(full_check=True)`, and must reproduce the PyTorch logits on real images
+(max abs difference and identical top-1). It is written under a temporary name and renamed over the
+output only then, so a failed export never replaces a good file.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import onnx
+import onnxruntime as ort
+import torch
+
+from vehloc.data.compcars import CompCarsSample
+from vehloc.errors import VehlocError
+from vehloc.infer.metadata import ClassEntry, ModelMetadata, attach_metadata
+from vehloc.infer.preprocess import load_bgr, to_input
+from vehloc.train.module import VehicleClassifier as LightningClassifier
+from vehloc.train.module import load_classifier, read_checkpoint
+from vehloc.train.transforms import enlarge_box_xyxy_px
+
+DEFAULT_OPSET = 18
+
+
+class ExportError(VehlocError):
+    """The exported model failed a check; the output file was left as it was."""
+
+
+@dataclass(frozen=True)
+class ExportReport:
+    """What an export wrote and how closely the ONNX model reproduced the PyTorch one."""
+
+    output: Path
+    opset: int
+    parity_images: int
+    max_abs_logit_diff: float
+    top1_agreement: float
+
+
+class DeployedClassifier(torch.nn.Module):
+    """The classifier as deployed: RGB [0, 1] images in, logits and probabilities out."""
+
+    def __init__(self, classifier: LightningClassifier) -> None:
+        super().__init__()
+        self.classifier = classifier
+
+    def forward(self, images: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        logits = self.classifier(images)
+        return logits, torch.softmax(logits, dim=1)
+
+
+def file_sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with path.open("rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def roi_crops(samples: Sequence[CompCarsSample], enlarge_fraction: float) -> list[np.ndarray]:
+    """The labelled ROI of each sample, enlarged as in training, as BGR arrays."""
+    crops = []
+    for sample in samples:
+        image = load_bgr(sample.image_path)
+        height_px, width_px = image.shape[:2]
+        x0, y0, x1, y1 = enlarge_box_xyxy_px(sample.crop_box_xyxy_px(), enlarge_fraction, width_px, height_px)
+        crops.append(image[y0:y1, x0:x1])
+    return crops
+
+
+def metadata_of(checkpoint: dict, checkpoint_path: Path) -> ModelMetadata:
+    """The metadata of a checkpoint's classifier: its class table and preprocessing."""
+    hp = checkpoint["hyper_parameters"]
+    classes = tuple(
+        ClassEntry(int(model_id), str(make), str(model), *map(float, dims))
+        for model_id, make, model, dims in zip(hp["class_model_ids"], hp["class_makes"], hp["class_models"], hp["class_dims_mm"])
+    )
+    model = load_classifier(checkpoint)
+    return ModelMetadata(
+        classes=classes,
+        input_size_px=int(hp["input_size_px"]),
+        resize_px=int(hp["eval_resize_px"]),
+        roi_enlarge_fraction=float(hp["roi_enlarge_fraction"]),
+        mean=tuple(float(v) for v in model.mean.flatten()),
+        std=tuple(float(v) for v in model.std.flatten()),
+        backbone=str(hp["backbone"]["name"]),
+        source_checkpoint_sha256=file_sha256(checkpoint_path),
+        expected_top_k=int(hp.get("expected_top_k", 5)),
+    )
+
+
+def export_checkpoint(
+    checkpoint_path: Path,
+    output: Path,
+    parity_crops: Sequence[np.ndarray],
+    opset: int = DEFAULT_OPSET,
+    tolerance: float = 1e-4,
+) -> ExportReport:
+    """Export, check and atomically place the ONNX model of a checkpoint (see the module docstring)."""
+    if opset < 17:
+        raise ExportError(f"opset {opset} is below 17, the lowest vehloc exports")
+    if not parity_crops:
+        raise ExportError("the parity check needs at least one real image")
+    checkpoint = read_checkpoint(checkpoint_path)
+    metadata = metadata_of(checkpoint, Path(checkpoint_path))
+    deployed = DeployedClassifier(load_classifier(checkpoint)).eval()
+    images = np.stack([to_input(crop, metadata.resize_px, metadata.input_size_px) for crop in parity_crops])
+
+    output = Path(output)
+    output.parent.mkdir(parents=True, exist_ok=True)
+    temporary = output.with_name(f".{output.name}.{os.getpid()}.tmp")
+    try:
+        example = torch.from_numpy(images[:2])
+        torch.onnx.export(
+            deployed, (example,), str(temporary), input_names=[metadata.input_name],
+            output_names=list(metadata.output_names), opset_version=opset, dynamo=True,
+            dynamic_shapes=({0: torch.export.Dim("batch", min=1, max=4096)},), external_data=False,
+        )
+        model = onnx.load(str(temporary))
+        attach_metadata(model, metadata)
+        onnx.save(model, str(temporary))
+        onnx.checker.check_model(str(temporary), full_check=True)
+        report = _parity(deployed, temporary, images, metadata, tolerance, opset, output)
+        os.replace(temporary, output)
+        return report
+    finally:
+        temporary.unlink(missing_ok=True)
+
+
+def _parity(
+    deployed: DeployedClassifier, path: Path, images: np.ndarray, metadata: ModelMetadata, tolerance: float, opset: int,
+    output: Path,
+) -> ExportReport:
+    with torch.no_grad():
+        eager = deployed(torch.from_numpy(images))[0].numpy()
+    session = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
+    exported = session.run([metadata.output_names[0]], {metadata.input_name: images})[0]
+    max_diff = float(np.max(np.abs(exported - eager)))
+    agreement = float(np.mean(exported.argmax(axis=1) == eager.argmax(axis=1)))
+    if max_diff > tolerance or agreement < 1.0:
+        raise ExportError(
+            f"ONNX model disagrees with PyTorch on {len(images)} images: max |logit diff| {max_diff:.2e} "
+            f"(tolerance {tolerance:.0e}), same top-1 on {agreement:.1%}; {output} left unchanged"
+        )
+    return ExportReport(output, opset, len(images), max_diff, agreement)
