@@ -74,6 +74,7 @@ def test_metadata_round_trip(trained: tuple[Path, Path], exported: tuple[Path, o
     assert meta.colour_order == "RGB" and meta.backbone == "googlenet"
     assert meta.source_checkpoint_sha256 == file_sha256(checkpoint_path)
     assert meta.classes[0].make == "BMW" and meta.classes[0].length_mm == 5250
+    assert [c.wheelbase_mm for c in meta.classes] == hp["class_wheelbases_mm"] and meta.classes[0].wheelbase_mm == 3210
 
 
 def test_dynamic_batch_and_predictions(trained: tuple[Path, Path], exported: tuple[Path, object]) -> None:

@@ -42,6 +42,7 @@ def test_loaders_yield_normalisable_batches_with_indices(tiny_root: Path):
         "class_makes": ["MakeOne", "MakeOne", "MakeTwo"],
         "class_models": ["Alpha", "Beta", "Gamma"],
         "class_dims_mm": [[4500.0, 1800.0, 1450.0], [4600.0, 1850.0, 1470.0], [4000.0, 1700.0, 1600.0]],
+        "class_wheelbases_mm": [2700.0, None, 2500.0],
     }
 
 

@@ -11,7 +11,8 @@ import numpy as np
 import onnxruntime as ort
 
 from vehloc.data.dimension_error import expected_dims_mm
-from vehloc.infer.metadata import ClassEntry, ModelFileError, ModelMetadata, read_metadata
+from vehloc.data.specs import VehicleSpec
+from vehloc.infer.metadata import ModelFileError, ModelMetadata, read_metadata
 from vehloc.infer.preprocess import load_bgr, to_input
 
 
@@ -66,7 +67,7 @@ class VehicleClassifier:
         return cls(session, metadata, str(path))
 
     @property
-    def classes(self) -> tuple[ClassEntry, ...]:
+    def classes(self) -> tuple[VehicleSpec, ...]:
         return self.metadata.classes
 
     def probabilities(self, images: Sequence[np.ndarray | str | Path], batch_size: int = 32) -> np.ndarray:

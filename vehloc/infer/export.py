@@ -21,8 +21,9 @@ import onnxruntime as ort
 import torch
 
 from vehloc.data.compcars import CompCarsSample
+from vehloc.data.specs import VehicleSpec
 from vehloc.errors import VehlocError
-from vehloc.infer.metadata import ClassEntry, ModelMetadata, attach_metadata
+from vehloc.infer.metadata import ModelMetadata, attach_metadata
 from vehloc.infer.preprocess import load_bgr, to_input
 from vehloc.train.module import VehicleClassifier as LightningClassifier
 from vehloc.train.module import load_classifier, read_checkpoint
@@ -80,9 +81,12 @@ def roi_crops(samples: Sequence[CompCarsSample], enlarge_fraction: float) -> lis
 def metadata_of(checkpoint: dict, checkpoint_path: Path) -> ModelMetadata:
     """The metadata of a checkpoint's classifier: its class table and preprocessing."""
     hp = checkpoint["hyper_parameters"]
+    wheelbases = hp.get("class_wheelbases_mm") or [None] * len(hp["class_model_ids"])
     classes = tuple(
-        ClassEntry(int(model_id), str(make), str(model), *map(float, dims))
-        for model_id, make, model, dims in zip(hp["class_model_ids"], hp["class_makes"], hp["class_models"], hp["class_dims_mm"])
+        VehicleSpec(int(model_id), str(make), str(model), *map(float, dims), wheelbase)
+        for model_id, make, model, dims, wheelbase in zip(
+            hp["class_model_ids"], hp["class_makes"], hp["class_models"], hp["class_dims_mm"], wheelbases
+        )
     )
     model = load_classifier(checkpoint)
     return ModelMetadata(

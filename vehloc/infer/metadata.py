@@ -1,7 +1,7 @@
 """What a vehloc ONNX file carries besides its graph: classes, their dimensions, preprocessing.
 
 Stored as one JSON document under the metadata key `vehloc`, so that a user needs nothing but the
-`.onnx` file: the graph takes RGB images scaled to [0, 1] (N, 3, S, S), normalises them itself
+`.onnx` file: the classes are the specs rows of their models (id, make, model, L/W/H, wheelbase); the graph takes RGB images scaled to [0, 1] (N, 3, S, S), normalises them itself
 (mean/std below, recorded for reference) and returns logits and probabilities per class.
 """
 
@@ -13,6 +13,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 import onnx
 
+from vehloc.data.specs import VehicleSpec
 from vehloc.errors import VehlocError
 
 METADATA_KEY = "vehloc"
@@ -24,22 +25,10 @@ class ModelFileError(VehlocError):
 
 
 @dataclass(frozen=True)
-class ClassEntry:
-    """One class of the classifier: its CompCars model id, names and dimensions (mm)."""
-
-    model_id: int
-    make: str
-    model: str
-    length_mm: float
-    width_mm: float
-    height_mm: float
-
-
-@dataclass(frozen=True)
 class ModelMetadata:
     """Everything needed to use an exported classifier."""
 
-    classes: tuple[ClassEntry, ...]
+    classes: tuple[VehicleSpec, ...]
     input_size_px: int
     resize_px: int
     roi_enlarge_fraction: float
@@ -58,7 +47,7 @@ class ModelMetadata:
     @property
     def dims_mm(self) -> np.ndarray:
         """(C, 3) length, width, height of every class, in mm."""
-        return np.array([[c.length_mm, c.width_mm, c.height_mm] for c in self.classes], dtype=float)
+        return np.array([c.dims_mm for c in self.classes], dtype=float).reshape(-1, 3)
 
     def to_json(self) -> str:
         return json.dumps(asdict(self), sort_keys=True)
@@ -67,7 +56,7 @@ class ModelMetadata:
     def from_json(cls, text: str, source: str) -> ModelMetadata:
         try:
             values = json.loads(text)
-            values["classes"] = tuple(ClassEntry(**entry) for entry in values["classes"])
+            values["classes"] = tuple(VehicleSpec(**entry) for entry in values["classes"])
             for key in ("mean", "std", "input_range", "output_names"):
                 values[key] = tuple(values[key])
             return cls(**values)

@@ -83,13 +83,14 @@ class CompCarsDataModule(L.LightningDataModule):
         return specs
 
     def class_info(self) -> dict[str, list]:
-        """Model ids, make and model names and (L, W, H) in mm of the classes, in class-index order."""
+        """Model ids, make and model names, (L, W, H) and wheelbase in mm of the classes, in class-index order."""
         table = self.dataset.class_table()
         return {
             "class_model_ids": [int(row["model_id"]) for row in table],
             "class_makes": [str(row["make"]) for row in table],
             "class_models": [str(row["model"]) for row in table],
             "class_dims_mm": self.specs.dims_mm(self.dataset.model_ids).tolist(),
+            "class_wheelbases_mm": [self.specs[m].wheelbase_mm for m in self.dataset.model_ids],
         }
 
     def _crops(self, samples: Sequence[CompCarsSample], labels: Sequence[int], train: bool) -> CompCarsCrops:

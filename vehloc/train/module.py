@@ -39,6 +39,7 @@ class VehicleClassifier(L.LightningModule):
         input_size_px: int = 224,
         eval_resize_px: int | None = None,
         roi_enlarge_fraction: float = 0.10,
+        class_wheelbases_mm: list[float | None] | None = None,
     ) -> None:
         super().__init__()
         self.save_hyperparameters(logger=False)
