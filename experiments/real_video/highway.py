@@ -36,8 +36,8 @@ LEFT_CURB_PX = np.array([[62.0, 160.0], [40.0, 178.0], [22.0, 190.0]])
 SHOWN_FRAMES = (300, 500, 800, 1200, 1500, 1650)
 
 
-def run_roi(out_dir: Path) -> pd.DataFrame:
-    """Boxes of every frame; a picture of the frames in SHOWN_FRAMES with their boxes."""
+def run_roi(out_dir: Path) -> tuple[pd.DataFrame, int]:
+    """Boxes of every frame and the frame count; a picture of the frames in SHOWN_FRAMES with their boxes."""
     extractor = VehicleRoiExtractor(RoiParams(close_kernel_px=5))
     rows, shown = [], []
     for index, frame in enumerate(iter_frames(VIDEO)):
@@ -53,7 +53,7 @@ def run_roi(out_dir: Path) -> pd.DataFrame:
     cv2.imwrite(str(out_dir / "roi_frames.png"), grid)
     boxes = pd.DataFrame(rows, columns=["frame", "x0", "y0", "x1", "y1"])
     boxes.to_csv(out_dir / "roi_boxes.csv", index=False)
-    return boxes
+    return boxes, index + 1
 
 
 def main() -> None:
@@ -72,8 +72,7 @@ def main() -> None:
     yellow_px = apply_homography(homography, np.array([[3658.0, y] for y in (0.0, 12192.0, 24384.0)]))
     lane_px = np.linalg.norm(yellow_px - dash_axis_px, axis=1)
 
-    boxes = run_roi(args.out)
-    frames_total = sum(1 for _ in iter_frames(VIDEO))
+    boxes, frames_total = run_roi(args.out)
     learnt = boxes[boxes.frame >= 150]
     frames_with_box = learnt.frame.nunique()
     lines = [

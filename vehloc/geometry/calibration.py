@@ -25,9 +25,10 @@ from vehloc.geometry.edges import (
     end_edges,
     refine_on_edges,
     stripe_edges,
+    visible_depth_sign,
 )
 from vehloc.geometry.markers import DetectedMarker
-from vehloc.geometry.site import Site, SiteError, SiteStripe, collinearity_ratio
+from vehloc.geometry.site import Site, SiteError, collinearity_ratio
 
 
 class CalibrationError(SiteError):
@@ -292,13 +293,14 @@ def calibrate_from_guess(
 
     For views whose markers are too small or blurred to be found as blobs. The clicked points serve
     as the matched corners of the result, so its reprojection error is theirs."""
+    params = params or CalibrationParams()
     if not site.guess_points:
         raise CalibrationError(f"site {site.name!r}: calibrating from the guess needs 'initial_guess.points'")
     homography, edge_px = refine_on_site(image_bgr, site, site.initial_homography, params)
     world = np.array([w for w, _ in site.guess_points])
     image = np.array([p for _, p in site.guess_points])
     labels = tuple(f"guess:{i}" for i in range(len(world)))
-    return Calibration(homography, world, image, labels, np.ones(len(world), bool), params.refine_rounds if params else 0, edge_px)
+    return Calibration(homography, world, image, labels, np.ones(len(world), bool), params.refine_rounds, edge_px)
 
 
 @dataclass(frozen=True)
@@ -317,7 +319,7 @@ def camera_from_homography(
     """Recover focal length, pose, height and downward tilt from H = K [r1 r2 t] (square pixels)."""
     cx, cy = principal_px if principal_px is not None else ((width_px - 1) / 2, (height_px - 1) / 2)
     centred = np.array([[1, 0, -cx], [0, 1, -cy], [0, 0, 1.0]]) @ np.asarray(homography, dtype=float)
-    h1, h2, h3 = centred[:, 0], centred[:, 1], centred[:, 2]
+    h1, h2 = centred[:, 0], centred[:, 1]
     # r1 . r2 = 0 and |r1| = |r2| give two linear equations in 1/f^2 (unknown) and 1 (known).
     rows = np.array([[h1[0] * h2[0] + h1[1] * h2[1], h1[2] * h2[2]],
                      [h1[0] ** 2 + h1[1] ** 2 - h2[0] ** 2 - h2[1] ** 2, h1[2] ** 2 - h2[2] ** 2]])
@@ -330,9 +332,7 @@ def camera_from_homography(
     homography = np.asarray(homography, dtype=float)
     r1, r2, t = (K_inv @ homography[:, i] for i in range(3))
     scale = 2.0 / (np.linalg.norm(r1) + np.linalg.norm(r2))
-    road_below_centre = np.linalg.solve(homography, [cx, height_px - 1.0, 1.0])
-    depth_sign = np.sign((homography @ (road_below_centre / road_below_centre[2]))[2])
-    scale *= depth_sign  # road points seen at the image bottom lie in front of the camera
+    scale *= visible_depth_sign(homography, (height_px, width_px))  # so that the road seen lies in front
     r1, r2, t = r1 * scale, r2 * scale, t * scale
     u, _, vt = np.linalg.svd(np.column_stack([r1, r2, np.cross(r1, r2)]))
     R = u @ vt

@@ -69,13 +69,17 @@ def _in_view(points_px: np.ndarray, shape: tuple[int, int], border_px: int) -> b
     )
 
 
-def in_front(homography: np.ndarray, point_mm: np.ndarray, shape: tuple[int, int]) -> bool:
-    """Whether a road point lies in front of the camera: its projective depth has the sign of the
-    road point seen at the middle of the image's bottom row."""
+def visible_depth_sign(homography: np.ndarray, shape: tuple[int, int]) -> float:
+    """Sign of the projective depth of road points in front of the camera under H: that of the road
+    point seen at the middle of the image's bottom row."""
     height_px, width_px = shape
     seen = np.linalg.solve(homography, [(width_px - 1) / 2, height_px - 1.0, 1.0])
-    reference = (homography @ (seen / seen[2]))[2]
-    return float((homography @ [*point_mm, 1.0])[2]) * float(reference) > 0
+    return float(np.sign((homography @ (seen / seen[2]))[2]))
+
+
+def in_front(homography: np.ndarray, point_mm: np.ndarray, depth_sign: float) -> bool:
+    """Whether a road point lies in front of the camera (see `visible_depth_sign`)."""
+    return float((homography @ [*point_mm, 1.0])[2]) * depth_sign > 0
 
 
 def stripe_edges(
@@ -97,13 +101,14 @@ def stripe_edges(
     half_mm = width_mm / 2
     fractions = np.linspace(span[0], span[1], params.samples_per_stripe)
     span_px = apply_homography(homography, start + np.array(span)[:, None] * (end - start))
-    if np.all(np.isfinite(span_px)) and in_front(homography, start + span[0] * (end - start), grey.shape) \
-            and in_front(homography, start + span[1] * (end - start), grey.shape):
+    depth_sign = visible_depth_sign(homography, grey.shape)
+    if np.all(np.isfinite(span_px)) and in_front(homography, start + span[0] * (end - start), depth_sign) \
+            and in_front(homography, start + span[1] * (end - start), depth_sign):
         samples = int(np.clip(np.linalg.norm(span_px[1] - span_px[0]) / params.px_per_sample, 3, params.samples_per_stripe))
         fractions = np.linspace(span[0], span[1], samples)
     sides: dict[int, list[np.ndarray]] = {-1: [], 1: []}
     for centre_mm in start + fractions[:, None] * (end - start):
-        if not in_front(homography, centre_mm, grey.shape):
+        if not in_front(homography, centre_mm, depth_sign):
             continue
         centre_px, ahead_px, side_px = apply_homography(
             homography, np.array([centre_mm, centre_mm + 100 * along, centre_mm + half_mm * normal])
@@ -142,8 +147,9 @@ def end_edges(
     along = (end - start) / np.linalg.norm(end - start)
     normal = np.array([-along[1], along[0]]) * width_mm / 2
     observations = []
+    depth_sign = visible_depth_sign(homography, grey.shape)
     for tip, inward in ((start, along), (end, -along)):
-        if not in_front(homography, tip, grey.shape):
+        if not in_front(homography, tip, depth_sign):
             continue
         tip_px, inside_px = apply_homography(homography, np.array([tip, tip + 200 * inward]))
         if not _in_view(np.array([tip_px, inside_px]), grey.shape, params.border_px):

@@ -14,6 +14,8 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from vehloc.train.transforms import enlarge_box_xyxy_px
+
 MOG2_SHADOW_VALUE = 127
 MOG2_FOREGROUND_VALUE = 255
 
@@ -34,7 +36,6 @@ class RoiParams:
     open_kernel_px: int = 3
     close_kernel_px: int = 9
     min_area_fraction: float = 0.002
-    enlarge_fraction: float = 0.10
 
 
 @dataclass(frozen=True)
@@ -69,12 +70,8 @@ class Box:
         return inter / union if union else 0.0
 
     def enlarged(self, fraction: float, width_px: int, height_px: int) -> Box:
-        """The box grown by `fraction` of its size on each side, clipped to the image."""
-        dx, dy = round(fraction * self.width_px), round(fraction * self.height_px)
-        return Box(max(0, self.x0 - dx), max(0, self.y0 - dy), min(width_px, self.x1 + dx), min(height_px, self.y1 + dy))
-
-    def crop(self, image: np.ndarray) -> np.ndarray:
-        return image[self.y0:self.y1, self.x0:self.x1]
+        """The box grown by `fraction` of its size on each side, clipped to the image (as in training)."""
+        return Box(*enlarge_box_xyxy_px((self.x0, self.y0, self.x1, self.y1), fraction, width_px, height_px))
 
 
 def local_correlation(image: np.ndarray, reference: np.ndarray, window_px: int) -> tuple[np.ndarray, np.ndarray]:

@@ -20,7 +20,14 @@ import numpy as np
 
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.synth.catalog import model_by_id
-from vehloc.synth.render import HEADING_CONVENTION, CarPose, Lighting, render_car
+from vehloc.synth.render import (
+    HEADING_CONVENTION,
+    CarPose,
+    Lighting,
+    footprint_car_mm,
+    render_car,
+    tyre_contacts_car_mm,
+)
 from vehloc.synth.road import RoadLayout, render_road
 
 CODECS = {"lossless": "FFV1", "mjpeg": "MJPG"}
@@ -143,9 +150,8 @@ def ground_truth(spec: SceneSpec, boxes: list[list[int] | None]) -> dict:
     """The scene's ground truth as a JSON-ready mapping."""
     camera = spec.camera.camera()
     model = model_by_id(spec.model_id)
-    final = render_car(
-        model, model.palette[0][1], spec.target_pose, camera, np.zeros((camera.height_px, camera.width_px, 3), np.uint8)
-    )
+    contacts_mm = spec.target_pose.car_to_world(tyre_contacts_car_mm(model))
+    corners_mm = spec.target_pose.car_to_world(footprint_car_mm(model))
     homography = camera.road_homography()
     markers = []
     for marker in spec.layout.markers():
@@ -186,11 +192,11 @@ def ground_truth(spec: SceneSpec, boxes: list[list[int] | None]) -> dict:
             "height_mm": model.height_mm,
             "wheelbase_mm": model.wheelbase_mm,
             "pose": {"x_mm": spec.target_x_mm, "y_mm": spec.target_y_mm, "heading_deg": spec.target_heading_deg},
-            "tyre_contacts_mm": final.tyre_contacts_mm[:, :2].tolist(),
-            "tyre_contacts_px": final.tyre_contacts_px.tolist(),
+            "tyre_contacts_mm": contacts_mm[:, :2].tolist(),
+            "tyre_contacts_px": camera.project(contacts_mm).tolist(),
             "tyre_order": ["front_left", "front_right", "rear_left", "rear_right"],
-            "footprint_corners_mm": final.footprint_corners_mm[:, :2].tolist(),
-            "footprint_corners_px": final.footprint_corners_px.tolist(),
+            "footprint_corners_mm": corners_mm[:, :2].tolist(),
+            "footprint_corners_px": camera.project(corners_mm).tolist(),
             "footprint_order": ["front_left", "front_right", "rear_right", "rear_left"],
         },
         "boxes_xyxy_px": boxes,
