@@ -13,12 +13,19 @@ from vehloc.train.instantiate import CONF_DIR, instantiate_callbacks, instantiat
 from vehloc.train.module import check_classes, load_classifier, read_checkpoint
 
 
+PREPROCESSING_KEYS = ("input_size_px", "eval_resize_px", "roi_enlarge_fraction")
+
+
 def evaluate(cfg: DictConfig) -> tuple[dict[str, float], dict[str, Any]]:
-    """Test the checkpoint `cfg.ckpt_path` on the test split of `cfg.data`, with the data's specs table."""
+    """Test the checkpoint `cfg.ckpt_path` on the test split of `cfg.data`, with the data's specs table.
+
+    The ROI enlargement, resize and input size are the checkpoint's own (those it was trained with),
+    whatever the data config says."""
     if OmegaConf.is_missing(cfg, "ckpt_path") or not cfg.ckpt_path:
         raise VehlocError("ckpt_path=PATH is required: the checkpoint to evaluate")
     checkpoint = read_checkpoint(cfg.ckpt_path)
-    datamodule = hydra.utils.instantiate(cfg.data, _convert_="all")
+    preprocessing = {key: checkpoint["hyper_parameters"][key] for key in PREPROCESSING_KEYS}
+    datamodule = hydra.utils.instantiate(cfg.data, **preprocessing, _convert_="all")
     classes = datamodule.class_info()
     check_classes(checkpoint, classes["class_model_ids"], cfg.ckpt_path)
     model = load_classifier(checkpoint, **{k: v for k, v in classes.items() if k != "class_model_ids"})
