@@ -56,6 +56,28 @@ def test_viewpoint_codes(azimuth_deg: float, code: int) -> None:
     assert viewpoint_code(azimuth_deg) == code
 
 
+def _camera_elevation_deg(scene) -> float:
+    offset = scene.camera.centre_mm - np.array([scene.pose.x_mm, scene.pose.y_mm, 0.0])
+    return float(np.degrees(np.arctan2(offset[2], np.linalg.norm(offset[:2]))))
+
+
+def test_traffic_views_see_fronts_and_rears_from_above_and_any_views_go_all_round() -> None:
+    model = model_by_id(9)
+    traffic = [sample_scene(model, 0, i, views="traffic") for i in range(120)]
+    codes = {scene.viewpoint for scene in traffic}
+    assert {1, 2} <= codes <= {1, 2, 4, 5}
+    for scene in traffic:
+        off_axis_deg = abs((scene.azimuth_deg + 90.0) % 180.0 - 90.0)  # from the nearer of front and rear
+        assert off_axis_deg <= 30.0 + 1e-6
+        # the camera aims above the ground, so the elevation of its centre seen from the footprint centre
+        # is at least the drawn 8 deg
+        assert _camera_elevation_deg(scene) >= 8.0
+    around = {sample_scene(model, 0, i, views="any").viewpoint for i in range(120)}
+    assert around == {1, 2, 3, 4, 5}
+    with pytest.raises(ValueError, match="views"):
+        sample_scene(model, 0, 0, views="aerial")
+
+
 def test_layout_reads_back_with_every_model_in_both_splits(demo_root: Path) -> None:
     dataset = read_compcars(demo_root)
     assert dataset.model_ids == tuple(m.model_id for m in CATALOG)

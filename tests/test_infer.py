@@ -9,6 +9,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import onnx
+import pandas as pd
 import pytest
 import torch
 from onnx import TensorProto, helper
@@ -164,6 +165,33 @@ def test_predict_cli(trained: tuple[Path, Path], exported: tuple[Path, object], 
     out = capsys.readouterr().out
     assert "probability" in out and str(images[0]) in out
     assert len((tmp_path / "p.csv").read_text().splitlines()) == 1 + 2 * 2
+
+
+def test_predict_cli_crops_whole_compcars_images_to_their_labels(
+    trained: tuple[Path, Path], exported: tuple[Path, object], tmp_path: Path, capsys
+) -> None:
+    root, _ = trained
+    samples = read_compcars(root).test[:3]
+    csv = tmp_path / "p.csv"
+    argv = ["--model", str(exported[0]), "--compcars-labels", "--top-k", "1", "--csv", str(csv)]
+    assert predict_main([*argv, *(str(s.image_path) for s in samples)]) == 0
+    table = pd.read_csv(csv)
+    reference = VehicleClassifier.from_onnx(exported[0]).predict(roi_crops(samples, 0.10), top_k=1)
+    assert table["model_id"].tolist() == [p.top_k[0].model_id for p in reference]
+    np.testing.assert_allclose(table["probability"], [p.top_k[0].probability for p in reference], atol=1e-4)
+    capsys.readouterr()
+
+    orphan = tmp_path / "image" / "1" / "1" / "2013" / "0000.jpg"
+    orphan.parent.mkdir(parents=True)
+    orphan.write_bytes(samples[0].image_path.read_bytes())
+    with pytest.raises(SystemExit) as exit_info:
+        predict_main([*argv, str(orphan)])
+    assert exit_info.value.code == 1
+    err = capsys.readouterr().err
+    assert "vehloc-predict: error:" in err and str(tmp_path / "label" / "1" / "1" / "2013" / "0000.txt") in err
+    with pytest.raises(SystemExit):
+        predict_main([*argv, str(tmp_path / "loose.jpg")])
+    assert "not under an image/ folder" in capsys.readouterr().err
 
 
 def test_export_cli(trained: tuple[Path, Path], tmp_path: Path) -> None:

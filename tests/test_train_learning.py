@@ -15,18 +15,17 @@ PROJECT_ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.mark.slow
-def test_demo_experiment_learns_far_above_chance(tmp_path: Path):
-    """GoogLeNet from scratch on the demo set of `make demo` (chance: 8.3 % top-1, 41.7 % top-5).
-    Measured 38.9 % / 73.3 % with seed 0; the 90 % of the training issue is not reached: with 45 train
-    images a model over all viewpoints the network overfits (90 % on its train images)."""
+def test_demo_experiment_reaches_90_percent(tmp_path: Path):
+    """GoogLeNet from scratch on the demo set of `make demo` (chance: 8.3 % top-1, 41.7 % top-5), the best
+    epoch picked on a validation share of train, scored on the unseen test split."""
     from vehloc.synth.demo_set import make_demo_set
 
-    root = make_demo_set(tmp_path / "demo", per_model=60, seed=0, workers=2)
+    root = make_demo_set(tmp_path / "demo", per_model=240, seed=0, workers=2)
     cfg = compose_config("train", ["experiment=demo", f"data.root={root}"], tmp_path / "run")
     metrics, _ = train(cfg)
-    assert metrics["test/acc"] >= 0.30 and metrics["test/acc_top5"] >= 0.60
+    assert metrics["test/acc"] >= 0.90 and metrics["test/acc_top5"] >= 0.98
     table1 = pd.read_csv(tmp_path / "run" / "table1" / "table1.csv")
-    assert len(table1) == 12 and table1["images"].sum() == 180
+    assert len(table1) == 12 and table1["images"].sum() == 720
 
 
 @pytest.mark.slow

@@ -42,7 +42,7 @@ def _make_demo(args: argparse.Namespace) -> int:
     from vehloc.synth.demo_set import make_demo_set
 
     start_s = time.perf_counter()
-    root = make_demo_set(args.out, per_model=args.per_model, seed=args.seed, workers=args.workers)
+    root = make_demo_set(args.out, per_model=args.per_model, seed=args.seed, workers=args.workers, views=args.views)
     print(f"wrote demo set to {root} in {time.perf_counter() - start_s:.1f} s")
     return 0
 
@@ -67,9 +67,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     demo = commands.add_parser("make-demo", help="write the procedural CompCars-format demo set")
     demo.add_argument("out", type=Path)
-    demo.add_argument("--per-model", type=int, default=60)
+    demo.add_argument("--per-model", type=int, default=240)
     demo.add_argument("--seed", type=int, default=0)
     demo.add_argument("--workers", type=int, default=2)
+    demo.add_argument(
+        "--views", choices=("traffic", "any"), default="traffic",
+        help="traffic: fronts and rears from above, as a road camera sees them; any: all round",
+    )
     demo.set_defaults(run=_make_demo)
 
     sheet = commands.add_parser("contact-sheet", help="draw one row of images per model")

@@ -1,4 +1,7 @@
-"""`vehloc-predict --model m.onnx IMAGE...`: the top-k car models and dimensions of vehicle images."""
+"""`vehloc-predict --model m.onnx IMAGE...`: the top-k car models and dimensions of vehicle images.
+
+The images are ROI crops, or, with `--compcars-labels`, whole CompCars images cropped to the box of their
+label file (`<root>/image/...jpg` -> `<root>/label/...txt`) enlarged as the model was trained."""
 
 from __future__ import annotations
 
@@ -6,16 +9,50 @@ import argparse
 import sys
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
-from vehloc.errors import exit_on_error
+from vehloc.data.compcars import parse_label
+from vehloc.errors import DataError, exit_on_error
 from vehloc.infer.classifier import VehicleClassifier
+from vehloc.infer.preprocess import load_bgr
+from vehloc.train.transforms import enlarge_box_xyxy_px
 
 
-def prediction_table(model: VehicleClassifier, images: list[Path], top_k: int) -> pd.DataFrame:
+def label_path_of(image_path: Path) -> Path:
+    """The CompCars label file of an image: the last `image` folder of its path replaced by `label`."""
+    parts = image_path.parts
+    if "image" not in parts[:-1]:
+        raise DataError(f"{image_path}: not under an image/ folder of a CompCars root, so it has no label file")
+    at = len(parts) - 2 - parts[-2::-1].index("image")
+    return Path(*parts[:at], "label", *parts[at + 1:]).with_suffix(".txt")
+
+
+def labelled_roi(image_path: Path, enlarge_fraction: float) -> np.ndarray:
+    """The vehicle ROI of a CompCars image: its label's box enlarged by `enlarge_fraction` on each side."""
+    label_path = label_path_of(image_path)
+    if not label_path.is_file():
+        raise DataError(f"{label_path}: the label file of {image_path} does not exist")
+    try:
+        _, (x1, y1, x2, y2) = parse_label(label_path.read_text())
+    except ValueError as err:
+        raise DataError(f"{label_path}: {err}") from None
+    image = load_bgr(image_path)
+    height_px, width_px = image.shape[:2]
+    x0, y0, x1, y1 = enlarge_box_xyxy_px((x1 - 1, y1 - 1, x2, y2), enlarge_fraction, width_px, height_px)
+    if x1 - x0 < 1 or y1 - y0 < 1:
+        raise DataError(f"{label_path}: box lies outside the {width_px}x{height_px} image {image_path}")
+    return image[y0:y1, x0:x1]
+
+
+def prediction_table(
+    model: VehicleClassifier, images: list[Path], top_k: int, compcars_labels: bool = False
+) -> pd.DataFrame:
     """One row per image and rank: model id, make, model, probability, and the image's dimension estimates."""
+    fraction = model.metadata.roi_enlarge_fraction
+    inputs = [labelled_roi(image, fraction) for image in images] if compcars_labels else images
     rows = []
-    for image, prediction in zip(images, model.predict(images, top_k=top_k)):
+    for image, prediction in zip(images, model.predict(inputs, top_k=top_k)):
         for rank, candidate in enumerate(prediction.top_k, start=1):
             rows.append({
                 "image": str(image), "rank": rank, "model_id": candidate.model_id, "make": candidate.make,
@@ -33,8 +70,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("images", type=Path, nargs="+", help="vehicle images (ROI crops)")
     parser.add_argument("--top-k", type=int, default=5)
     parser.add_argument("--csv", type=Path, help="also write the table to this CSV file")
+    parser.add_argument(
+        "--compcars-labels", action="store_true",
+        help="the images are whole CompCars images: crop each to the box of its label file",
+    )
     args = parser.parse_args(argv)
-    table = prediction_table(VehicleClassifier.from_onnx(args.model), args.images, args.top_k)
+    table = prediction_table(VehicleClassifier.from_onnx(args.model), args.images, args.top_k, args.compcars_labels)
     print(table.to_string(index=False))
     if args.csv:
         args.csv.parent.mkdir(parents=True, exist_ok=True)

@@ -533,7 +533,9 @@ def _grille(cap: _CapFrame, style: str) -> list[tuple[np.ndarray, Material, int]
 
 
 def _taillights(cap: _CapFrame, style: str) -> list[tuple[np.ndarray, Material, int]]:
+    """Tail lights (mirrored about y = 0) and any trim across the rear face between them."""
     decals: list[tuple[np.ndarray, Material, int]] = []
+    centre: list[tuple[np.ndarray, Material, int]] = []
     if style == "lbar":
         parts = [
             (cap.uv([(0.55, 0.72), (0.97, 0.72), (0.97, 0.97), (0.55, 0.97)]), Material.TAILLIGHT, 1),
@@ -581,11 +583,39 @@ def _taillights(cap: _CapFrame, style: str) -> list[tuple[np.ndarray, Material, 
             ),
             (_circle((cap.half * 0.855, cap.v(0.68)), (28.0, 28.0), 12), Material.REVERSE_LIGHT, 3),
         ]
+    elif style == "chrome_bar":
+        parts = [
+            (cap.uv([(0.58, 0.70), (0.97, 0.66), (0.97, 0.95), (0.62, 0.95)]), Material.TAILLIGHT, 1),
+            (cap.uv([(0.66, 0.80), (0.92, 0.78), (0.92, 0.83), (0.66, 0.85)]), Material.LAMP_ACCENT, 2),
+        ]
+        centre = [(cap.uv([(-0.60, 0.74), (0.60, 0.74), (0.60, 0.82), (-0.60, 0.82)]), Material.CHROME, 1)]
+    elif style == "boomerang":
+        parts = [
+            (cap.uv([(0.40, 0.92), (0.97, 0.70), (0.98, 0.97), (0.45, 0.98)]), Material.TAILLIGHT, 1),
+            (cap.uv([(0.86, 0.45), (0.98, 0.45), (0.98, 0.70), (0.90, 0.75)]), Material.TAILLIGHT, 1),
+            (cap.uv([(0.70, 0.12), (0.92, 0.12), (0.92, 0.18), (0.70, 0.18)]), Material.TAILLIGHT, 1),
+        ]
+    elif style == "chevron_bar":
+        parts = [
+            (cap.uv([(0.56, 0.68), (0.98, 0.64), (0.98, 0.96), (0.60, 0.96)]), Material.TAILLIGHT, 1),
+            (cap.uv([(0.64, 0.74), (0.78, 0.74), (0.78, 0.84), (0.64, 0.84)]), Material.REVERSE_LIGHT, 2),
+        ]
+        centre = [
+            (cap.uv([(-0.56, 0.70), (0.56, 0.70), (0.56, 0.74), (-0.56, 0.74)]), Material.CHROME, 1),
+        ] + [
+            (
+                cap.uv([(-0.14, 0.78 + dz), (0.0, 0.84 + dz), (0.14, 0.78 + dz), (0.14, 0.81 + dz),
+                        (0.0, 0.87 + dz), (-0.14, 0.81 + dz)]),
+                Material.CHROME,
+                1,
+            )
+            for dz in (0.0, 0.07)
+        ]
     else:
         raise ValueError(f"unknown tail-light style {style!r}")
     for yz, material, layer in parts:
         decals += [(side, material, layer) for side in _both_sides(yz)]
-    return decals
+    return decals + centre
 
 
 def _cap_frame(ring: np.ndarray) -> _CapFrame:

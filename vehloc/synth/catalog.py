@@ -30,7 +30,9 @@ BODY_TYPE_CODES: dict[str, int] = {
 
 GRILLES = ("kidney", "upright", "wide_bars", "chevron", "intake", "wing", "oval", "volvo", "slot", "big_bars")
 HEADLIGHTS = ("twin_round", "angular", "round", "slit", "drop", "rect")
-TAILLIGHTS = ("lbar", "wrap", "trapezoid", "vertical", "slit", "full_width", "round")
+TAILLIGHTS = (
+    "lbar", "wrap", "trapezoid", "vertical", "slit", "full_width", "round", "chrome_bar", "boomerang", "chevron_bar"
+)
 
 
 @dataclass(frozen=True)
@@ -250,7 +252,7 @@ CATALOG: tuple[CarModel, ...] = (
             tumblehome=0.76, nose_width_frac=0.84, tail_width_frac=0.88,
         ),
         details=Details(
-            grille="chevron", grille_rgb=(30, 30, 34), headlight="angular", taillight="wrap",
+            grille="chevron", grille_rgb=(30, 30, 34), headlight="angular", taillight="chevron_bar",
             window_splits=(0.5, 0.88), pillar="black", hub_rgb=(175, 178, 182), hub_spokes=6,
         ),
         palette=(
@@ -293,7 +295,7 @@ CATALOG: tuple[CarModel, ...] = (
             tumblehome=0.76, nose_width_frac=0.86, tail_width_frac=0.9,
         ),
         details=Details(
-            grille="oval", grille_rgb=(40, 40, 44), headlight="drop", taillight="wrap",
+            grille="oval", grille_rgb=(40, 40, 44), headlight="drop", taillight="boomerang",
             window_splits=(0.52,), pillar="black", hub_rgb=(165, 168, 170), hub_spokes=7,
         ),
         palette=(
@@ -335,7 +337,7 @@ CATALOG: tuple[CarModel, ...] = (
             tumblehome=0.75, nose_width_frac=0.85, tail_width_frac=0.89,
         ),
         details=Details(
-            grille="wing", grille_rgb=(30, 30, 33), headlight="angular", taillight="lbar",
+            grille="wing", grille_rgb=(30, 30, 33), headlight="angular", taillight="chrome_bar",
             window_splits=(0.48, 0.85), pillar="black", hub_rgb=(185, 187, 190), hub_spokes=10,
         ),
         palette=(

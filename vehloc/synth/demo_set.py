@@ -1,5 +1,8 @@
 """The CompCars-format demo set: catalog cars from random viewpoints over random backgrounds.
 
+By default the viewpoints are those of a camera above a road (fronts and rears, seen from above), the
+views the localisation pipeline classifies; ``views="any"`` goes all round the car, like web photos.
+
 Every image is a pure function of (seed, model id, index), so the bytes written do not depend on the
 number of worker processes.
 """
@@ -88,13 +91,28 @@ def _car_box_corners_mm(model: CarModel) -> np.ndarray:
     return np.array([[x, y, z] for x in (-hl, hl) for y in (-hw, hw) for z in (0.0, model.height_mm)])
 
 
-def sample_scene(model: CarModel, seed: int, index: int) -> DemoScene:
+VIEWS = ("any", "traffic")
+"""Viewpoint ranges: "any" direction around the car at 0-35 deg elevation (web photos), or "traffic":
+within 30 deg of the car's front or rear at 8-35 deg elevation (a camera above a road)."""
+
+
+def _camera_direction_deg(rng: np.random.Generator, views: str) -> tuple[float, float]:
+    """Azimuth from the car's front (counter-clockwise) and elevation of the camera, in degrees."""
+    if views == "any":
+        return float(rng.uniform(0, 360)), float(rng.uniform(0, 35))
+    if views == "traffic":
+        return float(rng.choice([0.0, 180.0]) + rng.uniform(-30, 30)), float(rng.uniform(8, 35))
+    raise ValueError(f"views must be one of {VIEWS}, not {views!r}")
+
+
+def sample_scene(model: CarModel, seed: int, index: int, views: str = "traffic") -> DemoScene:
     """Draw the viewpoint, framing, light, colour, background and degradations of one image."""
     rng = image_rng(seed, model.model_id, index)
     width, height = IMAGE_SIZE_PX
     pose = CarPose(0.0, 0.0, float(rng.uniform(0, 360)))
-    direction = np.radians(pose.heading_deg + rng.uniform(0, 360))
-    elevation = np.radians(rng.uniform(0, 35))
+    azimuth_from_front_deg, elevation_deg = _camera_direction_deg(rng, views)
+    direction = np.radians(pose.heading_deg + azimuth_from_front_deg)
+    elevation = np.radians(elevation_deg)
     distance_mm = model.length_mm * rng.uniform(1.4, 3.0)
     target = np.array(
         [*rng.uniform(-0.04, 0.04, 2) * model.length_mm, model.height_mm * rng.uniform(0.35, 0.55)]
@@ -172,10 +190,10 @@ def relative_image_path(model: CarModel, index: int) -> str:
     return f"{model.make_id}/{model.model_id}/{model.year}/{index:04d}.jpg"
 
 
-def _write_image(task: tuple[Path, int, int, int]) -> str:
-    root, seed, model_id, index = task
+def _write_image(task: tuple[Path, int, int, int, str]) -> str:
+    root, seed, model_id, index, views = task
     model = model_by_id(model_id)
-    scene = sample_scene(model, seed, index)
+    scene = sample_scene(model, seed, index, views)
     render = render_scene(scene)
     if render.box_1based_xyxy is None:
         raise RuntimeError(f"{model.name} image {index}: the car is not in the frame")
@@ -216,11 +234,17 @@ def _prepare_root(out_dir: Path) -> None:
 
 
 def make_demo_set(
-    out_dir: Path, per_model: int = 60, seed: int = 0, test_fraction: float = 0.25, workers: int = 2
+    out_dir: Path,
+    per_model: int = 240,
+    seed: int = 0,
+    test_fraction: float = 0.25,
+    workers: int = 2,
+    views: str = "traffic",
 ) -> Path:
     """Write the CompCars-format demo set under ``out_dir`` and return it.
 
-    Images, labels (true viewpoint, tight box), stratified split lists, `misc/make_model_name.mat`,
+    ``views``: "traffic" or "any" (see `VIEWS`). Images, labels (true viewpoint, tight box), stratified
+    split lists, `misc/make_model_name.mat`,
     `misc/attributes.txt` and `specs.csv`. A folder written by an earlier run is rewritten; any other
     non-empty folder is refused. With ``workers`` > 1 the images are drawn in spawned processes, so a
     script calling this must do so under ``if __name__ == "__main__":``.
@@ -230,8 +254,10 @@ def make_demo_set(
         raise ValueError("per_model must be at least 2 so that every model is in both splits")
     if not 0 < test_fraction < 1:
         raise ValueError("test_fraction must be in (0, 1)")
+    if views not in VIEWS:
+        raise ValueError(f"views must be one of {VIEWS}, not {views!r}")
     _prepare_root(out_dir)
-    tasks = [(out_dir, seed, m.model_id, i) for m in CATALOG for i in range(per_model)]
+    tasks = [(out_dir, seed, m.model_id, i, views) for m in CATALOG for i in range(per_model)]
     progress = dict(total=len(tasks), desc="demo images", unit="img")
     if workers <= 1:
         rel_paths = [_write_image(task) for task in tqdm(tasks, **progress)]
