@@ -27,7 +27,7 @@ from vehloc.infer.metadata import ModelMetadata, attach_metadata
 from vehloc.infer.preprocess import load_bgr, to_input
 from vehloc.train.module import VehicleClassifier as LightningClassifier
 from vehloc.train.module import load_classifier, read_checkpoint
-from vehloc.train.transforms import enlarge_box_xyxy_px
+from vehloc.train.transforms import enlarged_roi
 
 DEFAULT_OPSET = 18
 
@@ -69,13 +69,7 @@ def file_sha256(path: Path) -> str:
 
 def roi_crops(samples: Sequence[CompCarsSample], enlarge_fraction: float) -> list[np.ndarray]:
     """The labelled ROI of each sample, enlarged as in training, as BGR arrays."""
-    crops = []
-    for sample in samples:
-        image = load_bgr(sample.image_path)
-        height_px, width_px = image.shape[:2]
-        x0, y0, x1, y1 = enlarge_box_xyxy_px(sample.crop_box_xyxy_px(), enlarge_fraction, width_px, height_px)
-        crops.append(image[y0:y1, x0:x1])
-    return crops
+    return [enlarged_roi(load_bgr(s.image_path), s.crop_box_xyxy_px(), enlarge_fraction) for s in samples]
 
 
 def metadata_of(checkpoint: dict, checkpoint_path: Path) -> ModelMetadata:

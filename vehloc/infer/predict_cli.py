@@ -16,7 +16,7 @@ from vehloc.data.compcars import parse_label
 from vehloc.errors import DataError, exit_on_error
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.infer.preprocess import load_bgr
-from vehloc.train.transforms import enlarge_box_xyxy_px
+from vehloc.train.transforms import enlarged_roi
 
 
 def label_path_of(image_path: Path) -> Path:
@@ -37,12 +37,10 @@ def labelled_roi(image_path: Path, enlarge_fraction: float) -> np.ndarray:
         _, (x1, y1, x2, y2) = parse_label(label_path.read_text())
     except ValueError as err:
         raise DataError(f"{label_path}: {err}") from None
-    image = load_bgr(image_path)
-    height_px, width_px = image.shape[:2]
-    x0, y0, x1, y1 = enlarge_box_xyxy_px((x1 - 1, y1 - 1, x2, y2), enlarge_fraction, width_px, height_px)
-    if x1 - x0 < 1 or y1 - y0 < 1:
-        raise DataError(f"{label_path}: box lies outside the {width_px}x{height_px} image {image_path}")
-    return image[y0:y1, x0:x1]
+    try:
+        return enlarged_roi(load_bgr(image_path), (x1 - 1, y1 - 1, x2, y2), enlarge_fraction)
+    except ValueError as err:
+        raise DataError(f"{label_path}: {err} ({image_path})") from None
 
 
 def prediction_table(

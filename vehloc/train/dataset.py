@@ -10,7 +10,7 @@ from torch.utils.data import Dataset
 
 from vehloc.data.compcars import CompCarsSample
 from vehloc.errors import DataError
-from vehloc.train.transforms import enlarge_box_xyxy_px
+from vehloc.train.transforms import enlarged_roi
 
 
 def load_roi(sample: CompCarsSample, enlarge_fraction: float) -> torch.Tensor:
@@ -18,13 +18,11 @@ def load_roi(sample: CompCarsSample, enlarge_fraction: float) -> torch.Tensor:
     bgr = cv2.imread(str(sample.image_path), cv2.IMREAD_COLOR)
     if bgr is None:
         raise DataError(f"{sample.image_path}: not a readable image")
-    height_px, width_px = bgr.shape[:2]
-    x0, y0, x1, y1 = enlarge_box_xyxy_px(sample.crop_box_xyxy_px(), enlarge_fraction, width_px, height_px)
-    if x1 <= x0 or y1 <= y0:
-        raise DataError(
-            f"{sample.label_path}: box {sample.box_1based_xyxy} lies outside the {width_px}x{height_px} image"
-        )
-    rgb = cv2.cvtColor(bgr[y0:y1, x0:x1], cv2.COLOR_BGR2RGB)
+    try:
+        roi = enlarged_roi(bgr, sample.crop_box_xyxy_px(), enlarge_fraction)
+    except ValueError as err:
+        raise DataError(f"{sample.label_path}: {err}") from None
+    rgb = cv2.cvtColor(roi, cv2.COLOR_BGR2RGB)
     return torch.from_numpy(rgb).permute(2, 0, 1).contiguous()
 
 

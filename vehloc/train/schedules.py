@@ -12,6 +12,11 @@ from torch import nn
 from vehloc.errors import VehlocError
 
 
+def _warmup_factor(step: int, warmup_steps: int, start_factor: float) -> float:
+    """Linear warmup from `start_factor` at step 0 to 1 at `warmup_steps`."""
+    return start_factor + (1.0 - start_factor) * step / warmup_steps
+
+
 @dataclass
 class WarmupCosine:
     """LR factor: linear warmup from `start_factor` over `warmup_steps`, then cosine down to `min_factor`."""
@@ -23,7 +28,7 @@ class WarmupCosine:
 
     def __call__(self, step: int) -> float:
         if step < self.warmup_steps:
-            return self.start_factor + (1.0 - self.start_factor) * step / self.warmup_steps
+            return _warmup_factor(step, self.warmup_steps, self.start_factor)
         span = max(1, self.total_steps - self.warmup_steps)
         progress = min(1.0, (step - self.warmup_steps) / span)
         return self.min_factor + (1.0 - self.min_factor) * 0.5 * (1.0 + math.cos(math.pi * progress))
@@ -40,7 +45,7 @@ class WarmupStep:
 
     def __call__(self, step: int) -> float:
         if step < self.warmup_steps:
-            return self.start_factor + (1.0 - self.start_factor) * step / self.warmup_steps
+            return _warmup_factor(step, self.warmup_steps, self.start_factor)
         return self.gamma ** ((step - self.warmup_steps) // max(1, self.step_size))
 
 

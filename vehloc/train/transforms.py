@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import numpy as np
 import torch
 from torchvision.transforms import v2
 
@@ -16,6 +17,16 @@ def enlarge_box_xyxy_px(
     pad_x = round((x1 - x0) * enlarge_fraction)
     pad_y = round((y1 - y0) * enlarge_fraction)
     return max(0, x0 - pad_x), max(0, y0 - pad_y), min(width_px, x1 + pad_x), min(height_px, y1 + pad_y)
+
+
+def enlarged_roi(image: np.ndarray, box_xyxy_px: Sequence[int], enlarge_fraction: float) -> np.ndarray:
+    """The part of `image` under a 0-based half-open box grown by `enlarge_fraction` on each side;
+    ValueError if the box lies outside the image."""
+    height_px, width_px = image.shape[:2]
+    x0, y0, x1, y1 = enlarge_box_xyxy_px(box_xyxy_px, enlarge_fraction, width_px, height_px)
+    if x1 <= x0 or y1 <= y0:
+        raise ValueError(f"box {tuple(box_xyxy_px)} lies outside the {width_px}x{height_px} image")
+    return image[y0:y1, x0:x1]
 
 
 def train_transform(
