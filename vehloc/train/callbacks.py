@@ -10,6 +10,7 @@ import numpy as np
 import torch
 from lightning.pytorch.utilities import rank_zero_info
 
+from vehloc.train.precision import device_description
 from vehloc.train.report import write_report
 from vehloc.train.table1 import ClassTable, evaluate_predictions
 
@@ -53,5 +54,7 @@ class Table1Writer(L.Callback):
         tables = evaluate_predictions(
             data["probs"], data["targets"], classes, images, self.expected_top_k, self.first_n, self.top_pairs
         )
-        self.written = write_report(tables, classes.names, self.out_dir, title="Evaluation on the test split")
+        device = device_description(gpu=trainer.strategy.root_device.type == "cuda")
+        self.written = write_report(tables, classes.names, self.out_dir, title="Evaluation on the test split",
+                                    run_line=f"Precision {trainer.precision} on {device}.")
         rank_zero_info(f"Table 1 and evaluation tables written to {self.out_dir}")

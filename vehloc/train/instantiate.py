@@ -2,20 +2,25 @@
 
 from __future__ import annotations
 
+import json
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import hydra
 import lightning as L
+import torch
 from hydra import compose, initialize_config_dir
 from hydra.core.hydra_config import HydraConfig
 from lightning.pytorch.loggers import Logger
+from lightning.pytorch.utilities import rank_zero_info, rank_zero_only, rank_zero_warn
 from omegaconf import DictConfig, OmegaConf, open_dict
 
 from vehloc.errors import VehlocError
+from vehloc.hardware import cpu_info
 from vehloc.train.datamodule import CompCarsDataModule
 from vehloc.train.module import VehicleClassifier
+from vehloc.train.precision import PrecisionChoice, resolve_precision
 
 CONF_DIR = Path(__file__).resolve().parents[2] / "conf"
 
@@ -59,7 +64,28 @@ def instantiate_data_and_model(cfg: DictConfig) -> tuple[CompCarsDataModule, Veh
 
 
 def instantiate_trainer(cfg: DictConfig, callbacks: list[L.Callback], loggers: list[Logger]) -> L.Trainer:
-    return hydra.utils.instantiate(cfg.trainer, callbacks=callbacks, logger=loggers or False)
+    """The trainer, with `trainer.precision` resolved for the device (`auto`: bf16 only where it is native);
+    the choice is printed in one line and written to `device.json` in the run folder."""
+    choice = resolve_precision(cfg.trainer.get("precision", "32-true"), str(cfg.trainer.get("accelerator", "auto")))
+    if choice.warning:
+        rank_zero_warn(choice.warning)
+    rank_zero_info(choice.describe())
+    write_device_record(choice, Path(cfg.paths.output_dir))
+    return hydra.utils.instantiate(cfg.trainer, precision=choice.resolved, callbacks=callbacks,
+                                   logger=loggers or False)
+
+
+@rank_zero_only
+def write_device_record(choice: PrecisionChoice, run_dir: Path) -> Path:
+    """`device.json` in the run folder: the precision asked for and resolved, the device, torch and threads."""
+    record = {"precision": choice.as_dict(), "torch": torch.__version__, "torch_threads": torch.get_num_threads(),
+              "cpu": cpu_info().model_name, "cpu_flags": cpu_info().reported_flags}
+    run_dir.mkdir(parents=True, exist_ok=True)
+    path = run_dir / "device.json"
+    temp = path.with_name(f".{path.name}.tmp")
+    temp.write_text(json.dumps(record, indent=2) + "\n")
+    temp.replace(path)
+    return path
 
 
 def log_hyperparameters(cfg: DictConfig, loggers: list[Logger]) -> None:

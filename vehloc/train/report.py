@@ -65,9 +65,11 @@ def write_confusion_png(confusion: np.ndarray, names: Sequence[str], path: Path)
     return path
 
 
-def write_report(tables: EvalTables, names: Sequence[str], out_dir: Path, title: str = "Evaluation") -> list[Path]:
-    """Write every table as CSV, `report.md` (Table 1, accuracy, dimension errors, confused pairs) and
-    `confusion_matrix.png` into `out_dir`; return the written paths."""
+def write_report(tables: EvalTables, names: Sequence[str], out_dir: Path, title: str = "Evaluation",
+                 run_line: str = "") -> list[Path]:
+    """Write every table as CSV, `report.md` (Table 1, accuracy, dimension errors, confused pairs; `run_line`,
+    e.g. the precision and device, under the summary) and `confusion_matrix.png` into `out_dir`; return the
+    written paths."""
     out_dir.mkdir(parents=True, exist_ok=True)
     written = []
     for name, frame in (
@@ -85,7 +87,7 @@ def write_report(tables: EvalTables, names: Sequence[str], out_dir: Path, title:
         f"# {title}",
         f"{int(accuracy['images'])} test images of {int(accuracy['classes'])} models: "
         f"top-1 {accuracy['top1_pct']:.2f} %, top-5 {accuracy['top5_pct']:.2f} %, "
-        f"mean per-model top-1 {accuracy['per_class_top1_pct']:.2f} %.",
+        f"mean per-model top-1 {accuracy['per_class_top1_pct']:.2f} %." + (f" {run_line}" if run_line else ""),
         "## Table 1: rank of the true model and dimension errors",
         "Columns 1..N: rank (1-5, or – beyond 5) of the true model for the first test images of each model; "
         "*all ranks* counts every test image. Errors: average L/W/H error of the dimensions used, for the "
