@@ -13,7 +13,7 @@ from vehloc.geometry.calibration import (
     camera_from_homography,
     refine_on_site,
 )
-from vehloc.geometry.edges import EdgeSearchParams, apply_homography, stripe_edges
+from vehloc.geometry.edges import EdgeSearchParams, stripe_edges
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.markers import detect_markers
 from vehloc.geometry.site import Site, SiteError, SiteMarker, homography_from_points, read_site, write_site
@@ -27,8 +27,7 @@ LAYOUT = RoadLayout(lane_count=3, stop_line_y_mm=14000, start_y_mm=-2000, end_y_
 
 
 def _true_homography(camera: PinholeCamera) -> np.ndarray:
-    homography = camera.road_homography()
-    return homography / homography[2, 2]
+    return camera.road_to_image().normalised_matrix
 
 
 def _site_with_clicked_guess(camera: PinholeCamera, click_noise_px: float, seed: int) -> Site:
@@ -90,7 +89,7 @@ def test_calibration_recovers_the_true_homography(
     calibration = calibrate(detect_markers(image), site)
     assert calibration.inlier_count >= 16
     world = _visible_world_corners(camera, site)
-    error_px = calibration.road_to_image(world) - apply_homography(_true_homography(camera), world)
+    error_px = calibration.road_to_image(world) - camera.road_to_image()(world)
     assert np.sqrt(np.mean(np.sum(error_px**2, axis=1))) <= 1.0
 
     grid_px = np.stack(np.meshgrid(np.arange(100, 1200, 100), np.arange(420, 720, 60)), -1).reshape(-1, 2)
@@ -104,7 +103,7 @@ def test_calibration_recovers_the_true_homography(
 
 def test_camera_from_exact_homography() -> None:
     camera = CAMERAS["centre_low_rolled"]
-    recovered = camera_from_homography(camera.road_homography(), 1280, 720)
+    recovered = camera_from_homography(camera.road_to_image(), 1280, 720)
     assert recovered.focal_px == pytest.approx(950, abs=1e-6)
     np.testing.assert_allclose(recovered.camera.centre_mm, camera.centre_mm, atol=1e-6)
     np.testing.assert_allclose(recovered.camera.R, camera.R, atol=1e-9)
@@ -115,7 +114,7 @@ def test_camera_from_calibrated_homography(rendered: tuple[PinholeCamera, np.nda
     """Tolerance: focal and height within 2 %, tilt within 0.5 deg of the rendering camera's."""
     camera, image = rendered
     calibration = calibrate(detect_markers(image), _site_with_clicked_guess(camera, 2.0, seed=2))
-    recovered = camera_from_homography(calibration.homography, 1280, 720)
+    recovered = camera_from_homography(calibration.transform, 1280, 720)
     true_tilt_deg = np.degrees(np.arcsin(-camera.R[2, 2]))
     assert recovered.focal_px == pytest.approx(camera.focal_px, rel=0.02)
     assert recovered.height_mm == pytest.approx(camera.centre_mm[2], rel=0.02)
@@ -175,7 +174,7 @@ def test_stripe_edges_are_sub_pixel() -> None:
     grey = image.mean(axis=2).astype(np.float32)
     edge = next(m for m in LAYOUT.markers() if m.marker_id == "edge_right")
     start, end = edge.corners_mm[:2].mean(0), edge.corners_mm[2:].mean(0)
-    rough = _site_with_clicked_guess(camera, 3.0, seed=4).initial_homography
+    rough = _site_with_clicked_guess(camera, 3.0, seed=4).initial_transform()
     edges = stripe_edges(grey, rough, start, end, 150.0, EdgeSearchParams())
     assert len(edges) == 2
     truth_inverse = np.linalg.inv(_true_homography(camera))
@@ -190,7 +189,7 @@ def test_refinement_from_the_rough_guess_alone() -> None:
     camera = CAMERAS["side_high"]
     image = render_road(camera, LAYOUT, np.random.default_rng(3))
     site = _site_with_clicked_guess(camera, 3.0, seed=4)
-    homography, median_edge_px = refine_on_site(image, site, site.initial_homography)
+    road_to_image, median_edge_px = refine_on_site(image, site, site.initial_transform())
     world = _visible_world_corners(camera, site)
-    error_px = apply_homography(homography, world) - apply_homography(_true_homography(camera), world)
+    error_px = road_to_image(world) - camera.road_to_image()(world)
     assert np.sqrt(np.mean(np.sum(error_px**2, axis=1))) <= 1.0 and median_edge_px < 0.3

@@ -43,9 +43,7 @@ def test_homography_agrees_with_projection_on_the_road() -> None:
     camera = _traffic_camera()
     rng = np.random.default_rng(1)
     road_mm = np.column_stack([rng.uniform(-8000, 8000, 50), rng.uniform(0, 30000, 50)])
-    H = camera.road_homography()
-    mapped = np.column_stack([road_mm, np.ones(50)]) @ H.T
-    mapped = mapped[:, :2] / mapped[:, 2:3]
+    mapped = camera.road_to_image()(road_mm)
     np.testing.assert_allclose(mapped, camera.project(np.column_stack([road_mm, np.zeros(50)])), atol=1e-9)
 
 

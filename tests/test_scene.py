@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scene_configs import TABLE2_SCENES, scene_spec
 
-from vehloc.geometry.calibration import apply_homography
+from vehloc.geometry.projective import ProjectiveTransform
 from vehloc.synth.scene import SceneSpec, car_pose_at, render_frames, write_scene
 from vehloc.synth.scene_site import scene_site
 
@@ -52,7 +52,7 @@ def test_ground_truth_is_exact(tmp_path: Path) -> None:
     camera = spec.camera.camera()
     assert video.stat().st_size > 0 and truth["frames"] == 7 == len(truth["boxes_xyxy_px"])
     assert truth["boxes_xyxy_px"][:2] == [None, None] and truth["boxes_xyxy_px"][-1] is not None
-    homography = np.array(truth["homography_world_mm_to_image_px"])
+    homography = ProjectiveTransform.road_to_image(np.array(truth["homography_world_mm_to_image_px"]), 1280, 720)
     car = truth["car"]
     footprint = np.array(car["footprint_corners_mm"])
     # footprint: centred on the pose, L x W, front edge facing the heading (tolerance 1e-6 mm)
@@ -64,9 +64,9 @@ def test_ground_truth_is_exact(tmp_path: Path) -> None:
     tyres = np.array(car["tyre_contacts_mm"])
     assert np.linalg.norm(tyres[0] - tyres[2]) == pytest.approx(car["wheelbase_mm"], abs=1e-6)
     # image coordinates are the world ones through the road homography (tolerance 1e-6 px)
-    np.testing.assert_allclose(apply_homography(homography, tyres), car["tyre_contacts_px"], atol=1e-6)
+    np.testing.assert_allclose(homography(tyres), car["tyre_contacts_px"], atol=1e-6)
     marker = next(m for m in truth["markers"] if m["has_corners"] and None not in m["corners_px"])
-    np.testing.assert_allclose(apply_homography(homography, np.array(marker["corners_mm"])), marker["corners_px"], atol=1e-6)
+    np.testing.assert_allclose(homography(np.array(marker["corners_mm"])), marker["corners_px"], atol=1e-6)
     np.testing.assert_allclose(truth["camera"]["centre_mm"], camera.centre_mm, atol=1e-9)
 
 
@@ -82,8 +82,8 @@ def test_stopped_frames_repeat_the_rendered_car_with_fresh_noise() -> None:
 def test_scene_site_guess_is_close_to_the_truth() -> None:
     spec = scene_spec("table2_middle_30")
     site = scene_site(spec, click_noise_px=2.0, seed=0)
-    truth = spec.camera.camera().road_homography()
+    truth = spec.camera.camera().road_to_image()
     world = np.array([w for w, _ in site.guess_points])
-    error_px = apply_homography(site.initial_homography, world) - apply_homography(truth, world)
+    error_px = site.initial_transform()(world) - truth(world)
     assert np.all(np.linalg.norm(error_px, axis=1) < 10.0)
     assert len(site.markers) == sum(m.has_corners for m in spec.layout.markers())

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scene_configs import TABLE2_SCENES, scene_spec
 
-from vehloc.geometry.calibration import apply_homography, calibrate
+from vehloc.geometry.calibration import calibrate
 from vehloc.geometry.markers import detect_markers
 from vehloc.geometry.roi import Box, StoppedVehicleTracker, VehicleRoiExtractor
 from vehloc.synth.road import render_road
@@ -23,16 +23,16 @@ def test_calibration_on_table2_scene(name: str) -> None:
     empty_road = render_road(camera, spec.layout, np.random.default_rng(spec.seed))
     site = scene_site(spec, click_noise_px=2.0, seed=spec.seed)
     calibration = calibrate(detect_markers(empty_road), site, image_bgr=empty_road)
-    truth = camera.road_homography()
+    truth = camera.road_to_image()
 
     world, _ = site.world_corners_mm()
-    pixels = apply_homography(truth, world)
+    pixels = truth(world)
     in_view = (pixels[:, 0] >= 0) & (pixels[:, 0] < 1280) & (pixels[:, 1] >= 0) & (pixels[:, 1] < 720)
     in_view &= camera.to_camera(np.column_stack([world, np.zeros(len(world))]))[:, 2] > 0
     error_px = calibration.road_to_image(world[in_view]) - pixels[in_view]
     assert np.sqrt(np.mean(np.sum(error_px**2, axis=1))) <= 1.0
 
-    road_px = apply_homography(truth, np.array([[x, y] for x in (-4000, 0, 4000) for y in (2000, 6000, 12000, 25000)]))
+    road_px = truth(np.array([[x, y] for x in (-4000, 0, 4000) for y in (2000, 6000, 12000, 25000)]))
     true_mm = camera.image_to_road(road_px)
     distance_mm = np.linalg.norm(np.column_stack([true_mm, np.zeros(len(true_mm))]) - camera.centre_mm, axis=1)
     assert np.all(np.linalg.norm(calibration.image_to_road(road_px) - true_mm, axis=1) <= 0.01 * distance_mm)

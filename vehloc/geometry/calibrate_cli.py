@@ -45,7 +45,7 @@ def run_calibration(cfg: DictConfig, out_dir: Path) -> dict[str, object]:
     summary = {"site": str(cfg.site), "image": str(cfg.image), "mode": cfg.mode, "detected_markers": len(markers)}
     summary |= calibration.summary()
     try:
-        camera = camera_from_homography(calibration.homography, width_px, height_px)
+        camera = camera_from_homography(calibration.transform, width_px, height_px)
         summary |= {
             "focal_px": camera.focal_px,
             "camera_height_mm": camera.height_mm,

@@ -18,17 +18,21 @@ from scipy.spatial import cKDTree
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.camera_fit import FreeHomography, PinholeHomography
 from vehloc.geometry.edges import (
-    EdgeObservation,
     Anchors,
+    EdgeObservation,
     EdgeSearchParams,
-    apply_homography,
     end_edges,
     refine_on_edges,
     stripe_edges,
-    visible_depth_sign,
 )
 from vehloc.geometry.markers import DetectedMarker
+from vehloc.geometry.projective import ProjectiveTransform
 from vehloc.geometry.site import Site, SiteError, collinearity_ratio
+
+
+def image_size_of(image: np.ndarray) -> tuple[int, int]:
+    """(width, height) in pixels of an image array."""
+    return int(image.shape[1]), int(image.shape[0])
 
 
 class CalibrationError(SiteError):
@@ -60,7 +64,7 @@ class CalibrationParams:
 class Calibration:
     """A road-plane homography (world mm -> image px) and how well it fits the matched corners."""
 
-    homography: np.ndarray
+    transform: ProjectiveTransform
     world_mm: np.ndarray
     image_px: np.ndarray
     labels: tuple[str, ...]
@@ -68,13 +72,18 @@ class Calibration:
     iterations: int
     median_edge_px: float | None = None
 
+    @property
+    def homography(self) -> np.ndarray:
+        """H (world mm -> image px) scaled to h33 = 1."""
+        return self.transform.normalised_matrix
+
     def road_to_image(self, points_mm: np.ndarray) -> np.ndarray:
-        """Road points (N, 2) mm -> pixels (N, 2)."""
-        return apply_homography(self.homography, points_mm)
+        """Road points (N, 2) mm -> pixels (N, 2); NaN beyond the horizon."""
+        return self.transform(points_mm)
 
     def image_to_road(self, points_px: np.ndarray) -> np.ndarray:
-        """Pixels (N, 2) -> road points (N, 2) mm."""
-        return apply_homography(np.linalg.inv(self.homography), points_px)
+        """Pixels (N, 2) -> road points (N, 2) mm; NaN at or above the horizon."""
+        return self.transform.inverse(points_px)
 
     @property
     def inlier_count(self) -> int:
@@ -162,10 +171,10 @@ class MarkerMatch:
 
 
 def match_markers(
-    homography: np.ndarray, surveyed_quads_mm: np.ndarray, detected_quads_px: np.ndarray, gate_px: float
+    road_to_image: ProjectiveTransform, surveyed_quads_mm: np.ndarray, detected_quads_px: np.ndarray, gate_px: float
 ) -> list[MarkerMatch]:
     """Markers paired by their centroids, with their corners paired in cyclic order."""
-    projected = apply_homography(homography, surveyed_quads_mm.reshape(-1, 2)).reshape(-1, 4, 2)
+    projected = road_to_image(surveyed_quads_mm.reshape(-1, 2)).reshape(-1, 4, 2)
     centroids = projected.mean(axis=1)
     pairs = match_points(centroids, detected_quads_px.mean(axis=1), unambiguous_gates_px(centroids, gate_px))
     return [
@@ -189,24 +198,26 @@ def marker_edges(
     return edges
 
 
-def site_edges(grey: np.ndarray, homography: np.ndarray, site: Site, params: EdgeSearchParams) -> list[EdgeObservation]:
+def site_edges(
+    grey: np.ndarray, road_to_image: ProjectiveTransform, site: Site, params: EdgeSearchParams
+) -> list[EdgeObservation]:
     """Edges of every surveyed marker and stripe of the site, searched around their image under H."""
     edges = []
     for stripe in site.stripes:
-        edges += stripe_edges(grey, homography, stripe.start_mm, stripe.end_mm, stripe.width_mm, params)
+        edges += stripe_edges(grey, road_to_image, stripe.start_mm, stripe.end_mm, stripe.width_mm, params)
     for marker in site.markers:
         if len(marker.corners_mm) != 4:
             continue
         c = marker.corners_mm
         start, end, width_mm = (c[0] + c[1]) / 2, (c[2] + c[3]) / 2, float(np.linalg.norm(c[1] - c[0]))
-        edges += stripe_edges(grey, homography, start, end, width_mm, params, span=(0.15, 0.85))
-        edges += end_edges(grey, homography, start, end, width_mm, params)
+        edges += stripe_edges(grey, road_to_image, start, end, width_mm, params, span=(0.15, 0.85))
+        edges += end_edges(grey, road_to_image, start, end, width_mm, params)
     return edges
 
 
 def refine_on_site(
-    image_bgr: np.ndarray, site: Site, homography: np.ndarray, params: CalibrationParams | None = None
-) -> tuple[np.ndarray, float | None]:
+    image_bgr: np.ndarray, site: Site, road_to_image: ProjectiveTransform, params: CalibrationParams | None = None
+) -> tuple[ProjectiveTransform, float | None]:
     """Refine H on the edges of the site's markers and stripes, searched around their predicted image;
     a few rounds, each searching around the previous estimate. The site's clicked points, when it
     has them, hold the estimate where no edge is seen (a prior of `guess_sigma_px`). Returns H and
@@ -223,14 +234,16 @@ def refine_on_site(
     model = PinholeHomography(grey.shape[1], grey.shape[0]) if params.pinhole_model else FreeHomography()
     edge_px = None
     for _ in range(params.refine_rounds):
-        edges = site_edges(grey, homography, site, params.edge_search)
+        edges = site_edges(grey, road_to_image, site, params.edge_search)
         if not edges:
             break
-        homography, edge_px = refine_on_edges(homography, edges, anchors=anchors, model=model)
-    return homography, edge_px
+        road_to_image, edge_px = refine_on_edges(road_to_image, edges, anchors=anchors, model=model)
+    return road_to_image, edge_px
 
 
-def _estimate(world_mm: np.ndarray, image_px: np.ndarray, params: CalibrationParams) -> tuple[np.ndarray, np.ndarray]:
+def _estimate(
+    world_mm: np.ndarray, image_px: np.ndarray, params: CalibrationParams
+) -> tuple[ProjectiveTransform, np.ndarray]:
     if len(world_mm) < params.min_matches:
         raise CalibrationError(
             f"only {len(world_mm)} detected marker corner(s) matched the site's surveyed corners; "
@@ -246,7 +259,9 @@ def _estimate(world_mm: np.ndarray, image_px: np.ndarray, params: CalibrationPar
             f"RANSAC found no consensus among {len(world_mm)} matched corners "
             f"(threshold {params.ransac_threshold_px} px)"
         )
-    return homography / homography[2, 2], mask.ravel().astype(bool)
+    inliers = mask.ravel().astype(bool)
+    # the matched corners were seen: the visible side is theirs
+    return ProjectiveTransform.seen_from(homography, image_px[np.flatnonzero(inliers)[0]]), inliers
 
 
 def calibrate(
@@ -264,14 +279,14 @@ def calibrate(
         raise CalibrationError(f"site {site.name!r} has no marker with four surveyed corners")
     surveyed_quads = np.stack([m.corners_mm for m in surveyed])
     detected_quads = np.array([m.corners_px for m in detected], dtype=float).reshape(-1, 4, 2)
-    homography = site.initial_homography
+    road_to_image = site.initial_transform(None if image_bgr is None else image_size_of(image_bgr))
     gate_px = params.initial_gate_px
     previous: list[tuple[int, int]] | None = None
     for iteration in range(1, params.max_iterations + 1):
-        matches = match_markers(homography, surveyed_quads, detected_quads, gate_px)
+        matches = match_markers(road_to_image, surveyed_quads, detected_quads, gate_px)
         world = np.array([surveyed_quads[m.surveyed, k] for m in matches for k in range(4)]).reshape(-1, 2)
         image = np.array([detected_quads[m.detected, m.order[k]] for m in matches for k in range(4)]).reshape(-1, 2)
-        homography, inliers = _estimate(world, image, params)
+        road_to_image, inliers = _estimate(world, image, params)
         pairs = [(m.surveyed, m.detected) for m in matches]
         if pairs == previous:
             break
@@ -279,11 +294,11 @@ def calibrate(
         gate_px = max(params.final_gate_px, 0.5 * gate_px)
     edge_px = None
     if params.refine_on_edges:
-        homography, edge_px = refine_on_edges(homography, marker_edges(surveyed_quads, detected, matches))
+        road_to_image, edge_px = refine_on_edges(road_to_image, marker_edges(surveyed_quads, detected, matches))
         if image_bgr is not None:
-            homography, edge_px = refine_on_site(image_bgr, site, homography, params)
+            road_to_image, edge_px = refine_on_site(image_bgr, site, road_to_image, params)
     labels = tuple(f"{surveyed[m.surveyed].marker_id}:{k}" for m in matches for k in range(4))
-    return Calibration(homography, world, image, labels, inliers, iteration, edge_px)
+    return Calibration(road_to_image, world, image, labels, inliers, iteration, edge_px)
 
 
 def calibrate_from_guess(
@@ -296,11 +311,11 @@ def calibrate_from_guess(
     params = params or CalibrationParams()
     if not site.guess_points:
         raise CalibrationError(f"site {site.name!r}: calibrating from the guess needs 'initial_guess.points'")
-    homography, edge_px = refine_on_site(image_bgr, site, site.initial_homography, params)
+    road_to_image, edge_px = refine_on_site(image_bgr, site, site.initial_transform(), params)
     world = np.array([w for w, _ in site.guess_points])
     image = np.array([p for _, p in site.guess_points])
     labels = tuple(f"guess:{i}" for i in range(len(world)))
-    return Calibration(homography, world, image, labels, np.ones(len(world), bool), params.refine_rounds, edge_px)
+    return Calibration(road_to_image, world, image, labels, np.ones(len(world), bool), params.refine_rounds, edge_px)
 
 
 @dataclass(frozen=True)
@@ -314,11 +329,12 @@ class CameraFromHomography:
 
 
 def camera_from_homography(
-    homography: np.ndarray, width_px: int, height_px: int, principal_px: tuple[float, float] | None = None
+    road_to_image: ProjectiveTransform, width_px: int, height_px: int, principal_px: tuple[float, float] | None = None
 ) -> CameraFromHomography:
     """Recover focal length, pose, height and downward tilt from H = K [r1 r2 t] (square pixels)."""
     cx, cy = principal_px if principal_px is not None else ((width_px - 1) / 2, (height_px - 1) / 2)
-    centred = np.array([[1, 0, -cx], [0, 1, -cy], [0, 0, 1.0]]) @ np.asarray(homography, dtype=float)
+    homography = road_to_image.matrix
+    centred = np.array([[1, 0, -cx], [0, 1, -cy], [0, 0, 1.0]]) @ homography
     h1, h2 = centred[:, 0], centred[:, 1]
     # r1 . r2 = 0 and |r1| = |r2| give two linear equations in 1/f^2 (unknown) and 1 (known).
     rows = np.array([[h1[0] * h2[0] + h1[1] * h2[1], h1[2] * h2[2]],
@@ -329,10 +345,9 @@ def camera_from_homography(
     focal_px = 1.0 / np.sqrt(inv_f2)
     K = PinholeCamera.intrinsics(focal_px, width_px, height_px, (cx, cy))
     K_inv = np.linalg.inv(K)
-    homography = np.asarray(homography, dtype=float)
     r1, r2, t = (K_inv @ homography[:, i] for i in range(3))
     scale = 2.0 / (np.linalg.norm(r1) + np.linalg.norm(r2))
-    scale *= visible_depth_sign(homography, (height_px, width_px))  # so that the road seen lies in front
+    scale *= road_to_image.front_sign  # w is the depth: positive for the road seen, in front of the camera
     r1, r2, t = r1 * scale, r2 * scale, t * scale
     u, _, vt = np.linalg.svd(np.column_stack([r1, r2, np.cross(r1, r2)]))
     R = u @ vt

@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vehloc.geometry.projective import ProjectiveTransform
+
 
 def _rotation_from_angles(yaw_deg: float, pitch_deg: float, roll_deg: float) -> np.ndarray:
     """World-to-camera rotation for the angle conventions of `PinholeCamera.from_pose`."""
@@ -164,13 +166,12 @@ class PinholeCamera:
         visible = clip_to_near_plane(self.to_camera(polygon_mm), near_mm)
         return self.project_camera(visible) if len(visible) else np.zeros((0, 2))
 
-    def road_homography(self) -> np.ndarray:
-        """3x3 H mapping road-plane points (X, Y, 1) in mm to homogeneous pixels."""
-        return self.K @ np.column_stack([self.R[:, 0], self.R[:, 1], self.t])
+    def road_to_image(self) -> ProjectiveTransform:
+        """The road-plane homography H = K [r1 r2 t]: road points (X, Y) mm -> pixels; its ``w`` is the
+        depth in front of the camera, so points behind it are reported, not imaged."""
+        return ProjectiveTransform(self.K @ np.column_stack([self.R[:, 0], self.R[:, 1], self.t]), front_sign=1.0)
 
     def image_to_road(self, points_px: np.ndarray) -> np.ndarray:
-        """Pixels (N, 2) -> road-plane points (N, 2) mm, intersecting each pixel's ray with Z = 0."""
-        pixels = _as_points(points_px, 2)
-        homogeneous = np.column_stack([pixels, np.ones(len(pixels))])
-        road = homogeneous @ np.linalg.inv(self.road_homography()).T
-        return road[:, :2] / road[:, 2:3]
+        """Pixels (N, 2) -> road-plane points (N, 2) mm, intersecting each pixel's ray with Z = 0 (NaN for
+        pixels at or above the horizon)."""
+        return self.road_to_image().inverse(_as_points(points_px, 2))

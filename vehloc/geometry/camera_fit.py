@@ -10,6 +10,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from vehloc.geometry.camera import PinholeCamera
+from vehloc.geometry.projective import ProjectiveTransform
 
 
 class FreeHomography:
@@ -18,8 +19,12 @@ class FreeHomography:
     def to_homography(self, params: np.ndarray) -> np.ndarray:
         return np.append(params, 1.0).reshape(3, 3)
 
-    def from_homography(self, homography: np.ndarray) -> np.ndarray:
-        return (homography / homography[2, 2]).ravel()[:8]
+    def from_homography(self, road_to_image: ProjectiveTransform) -> np.ndarray:
+        return road_to_image.normalised_matrix.ravel()[:8]
+
+    def front_sign(self, road_to_image: ProjectiveTransform) -> float:
+        """The visible side's sign of w once H is scaled to h33 = 1 (h33 never crosses 0 in refinement)."""
+        return road_to_image.front_sign * float(np.sign(road_to_image.matrix[2, 2]))
 
 
 @dataclass(frozen=True)
@@ -40,15 +45,17 @@ class PinholeHomography:
         rotation, _ = cv2.Rodrigues(np.asarray(params[1:4], dtype=float))
         return PinholeCamera(self.intrinsics(float(np.exp(params[0]))), rotation, np.asarray(params[4:7]), self.width_px, self.height_px)
 
-    def from_homography(self, homography: np.ndarray) -> np.ndarray:
+    def from_homography(self, road_to_image: ProjectiveTransform) -> np.ndarray:
         """The camera closest to H: its image of a grid of road points in view matches H's."""
-        inverse = np.linalg.inv(homography)
         grid_px = np.stack(
             np.meshgrid(np.linspace(0.1, 0.9, 5) * self.width_px, np.linspace(0.55, 0.95, 5) * self.height_px), -1
         ).reshape(-1, 2)
-        road = np.column_stack([grid_px, np.ones(len(grid_px))]) @ inverse.T
-        world = road[:, :2] / road[:, 2:3]
-        return self.fit_points(world, grid_px)
+        world = road_to_image.inverse.map(grid_px)
+        return self.fit_points(world.points[world.visible], grid_px[world.visible])
+
+    def front_sign(self, road_to_image: ProjectiveTransform) -> float:
+        """K [r1 r2 t] has the depth in front of the camera as its w: positive on the visible side."""
+        return 1.0
 
     def fit_points(self, world_mm: np.ndarray, image_px: np.ndarray) -> np.ndarray:
         """Least-squares camera for >= 4 road-image correspondences, started from the best of a
@@ -61,8 +68,8 @@ class PinholeHomography:
             if not ok:
                 continue
             params = np.concatenate([[np.log(focal_px)], rvec.ravel(), tvec.ravel()])
-            error = float(np.sum(self._reprojection(params, world_mm, image_points) ** 2))
-            if best is None or error < best[0]:
+            error = float(np.sum(self._reprojection(params, world_mm, image_points) ** 2))  # NaN: points behind
+            if np.isfinite(error) and (best is None or error < best[0]):
                 best = (error, params)
         if best is None:
             raise ValueError("no camera pose fits these points")
@@ -70,5 +77,4 @@ class PinholeHomography:
         return result.x
 
     def _reprojection(self, params: np.ndarray, world_mm: np.ndarray, image_px: np.ndarray) -> np.ndarray:
-        mapped = np.column_stack([world_mm, np.ones(len(world_mm))]) @ self.to_homography(params).T
-        return (mapped[:, :2] / mapped[:, 2:3] - image_px).ravel()
+        return (ProjectiveTransform(self.to_homography(params))(world_mm) - image_px).ravel()

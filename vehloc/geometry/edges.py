@@ -15,6 +15,7 @@ from scipy.ndimage import map_coordinates
 from scipy.optimize import least_squares
 
 from vehloc.geometry.camera_fit import FreeHomography, PinholeHomography
+from vehloc.geometry.projective import ProjectiveTransform
 
 EdgeObservation = tuple[np.ndarray, np.ndarray]
 """A world line (a, b, c) on the road (mm) and the image points (N, 2) px observed on its image."""
@@ -29,13 +30,6 @@ class EdgeSearchParams:
     samples_per_stripe: int = 400
     px_per_sample: float = 2.0
     border_px: int = 6
-
-
-def apply_homography(homography: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """Map (N, 2) points through a 3x3 homography."""
-    points = np.asarray(points, dtype=float).reshape(-1, 2)
-    mapped = np.column_stack([points, np.ones(len(points))]) @ np.asarray(homography).T
-    return mapped[:, :2] / mapped[:, 2:3]
 
 
 def world_line(start_mm: np.ndarray, end_mm: np.ndarray) -> np.ndarray:
@@ -69,22 +63,9 @@ def _in_view(points_px: np.ndarray, shape: tuple[int, int], border_px: int) -> b
     )
 
 
-def visible_depth_sign(homography: np.ndarray, shape: tuple[int, int]) -> float:
-    """Sign of the projective depth of road points in front of the camera under H: that of the road
-    point seen at the middle of the image's bottom row."""
-    height_px, width_px = shape
-    seen = np.linalg.solve(homography, [(width_px - 1) / 2, height_px - 1.0, 1.0])
-    return float(np.sign((homography @ (seen / seen[2]))[2]))
-
-
-def in_front(homography: np.ndarray, point_mm: np.ndarray, depth_sign: float) -> bool:
-    """Whether a road point lies in front of the camera (see `visible_depth_sign`)."""
-    return float((homography @ [*point_mm, 1.0])[2]) * depth_sign > 0
-
-
 def stripe_edges(
     grey: np.ndarray,
-    homography: np.ndarray,
+    road_to_image: ProjectiveTransform,
     start_mm: np.ndarray,
     end_mm: np.ndarray,
     width_mm: float,
@@ -100,19 +81,17 @@ def stripe_edges(
     normal = np.array([-along[1], along[0]])
     half_mm = width_mm / 2
     fractions = np.linspace(span[0], span[1], params.samples_per_stripe)
-    span_px = apply_homography(homography, start + np.array(span)[:, None] * (end - start))
-    depth_sign = visible_depth_sign(homography, grey.shape)
-    if np.all(np.isfinite(span_px)) and in_front(homography, start + span[0] * (end - start), depth_sign) \
-            and in_front(homography, start + span[1] * (end - start), depth_sign):
+    span_ends = road_to_image.map(start + np.array(span)[:, None] * (end - start))
+    if span_ends.all_visible:
+        span_px = span_ends.points
         samples = int(np.clip(np.linalg.norm(span_px[1] - span_px[0]) / params.px_per_sample, 3, params.samples_per_stripe))
         fractions = np.linspace(span[0], span[1], samples)
     sides: dict[int, list[np.ndarray]] = {-1: [], 1: []}
     for centre_mm in start + fractions[:, None] * (end - start):
-        if not in_front(homography, centre_mm, depth_sign):
+        mapped = road_to_image.map(np.array([centre_mm, centre_mm + 100 * along, centre_mm + half_mm * normal]))
+        if not mapped.all_visible:
             continue
-        centre_px, ahead_px, side_px = apply_homography(
-            homography, np.array([centre_mm, centre_mm + 100 * along, centre_mm + half_mm * normal])
-        )
+        centre_px, ahead_px, side_px = mapped.points
         if not _in_view(np.array([centre_px]), grey.shape, params.border_px):
             continue
         direction = (ahead_px - centre_px) / np.linalg.norm(ahead_px - centre_px)
@@ -139,7 +118,7 @@ def stripe_edges(
 
 
 def end_edges(
-    grey: np.ndarray, homography: np.ndarray, start_mm: np.ndarray, end_mm: np.ndarray, width_mm: float,
+    grey: np.ndarray, road_to_image: ProjectiveTransform, start_mm: np.ndarray, end_mm: np.ndarray, width_mm: float,
     params: EdgeSearchParams,
 ) -> list[EdgeObservation]:
     """The two short ends of a painted band: where the paint stops along its centre line."""
@@ -147,11 +126,11 @@ def end_edges(
     along = (end - start) / np.linalg.norm(end - start)
     normal = np.array([-along[1], along[0]]) * width_mm / 2
     observations = []
-    depth_sign = visible_depth_sign(homography, grey.shape)
     for tip, inward in ((start, along), (end, -along)):
-        if not in_front(homography, tip, depth_sign):
+        mapped = road_to_image.map(np.array([tip, tip + 200 * inward]))
+        if not mapped.all_visible:
             continue
-        tip_px, inside_px = apply_homography(homography, np.array([tip, tip + 200 * inward]))
+        tip_px, inside_px = mapped.points
         if not _in_view(np.array([tip_px, inside_px]), grey.shape, params.border_px):
             continue
         outward = (tip_px - inside_px) / np.linalg.norm(tip_px - inside_px)
@@ -177,42 +156,44 @@ class Anchors:
 
 
 def refine_on_edges(
-    homography: np.ndarray,
+    road_to_image: ProjectiveTransform,
     edges: Sequence[EdgeObservation],
     robust_scale_px: float = 0.3,
     anchors: Anchors | None = None,
     model: FreeHomography | PinholeHomography | None = None,
-) -> tuple[np.ndarray, float | None]:
+) -> tuple[ProjectiveTransform, float | None]:
     """Refine H so that every observed edge point lies on the image of its world line.
 
     Edge points along whole sides constrain H far better than corners, whose positions are blurred
     where two edges meet. Anchors, when given, keep H near approximate correspondences in the
     directions the edges leave free (an anchor off by its sigma weighs like one edge point off by
     the robust scale). `model` parametrises H (free by default, or a pinhole camera). Returns the
-    refined H and the median absolute edge distance (px)."""
+    refined transform and the median absolute edge distance (px)."""
     if not edges:
-        return homography, None
+        return road_to_image, None
     world_lines = np.concatenate([np.repeat(line[None], len(points), 0) for line, points in edges])
     points = np.concatenate([points for _, points in edges])
     points_h = np.column_stack([points, np.ones(len(points))])
 
-    def edge_residuals(candidate: np.ndarray) -> np.ndarray:
-        image_lines = world_lines @ np.linalg.inv(candidate)  # rows: H^-T applied to each world line
+    model = model or FreeHomography()
+    front_sign = model.front_sign(road_to_image)
+
+    def edge_residuals(candidate: ProjectiveTransform) -> np.ndarray:
+        image_lines = candidate.map_lines(world_lines)
         return np.sum(image_lines * points_h, axis=1) / np.hypot(image_lines[:, 0], image_lines[:, 1])
 
-    model = model or FreeHomography()
-
     def residuals(params: np.ndarray) -> np.ndarray:
-        candidate = model.to_homography(params)
+        candidate = ProjectiveTransform(model.to_homography(params), front_sign)
         if anchors is None:
             return edge_residuals(candidate)
-        anchor_px = apply_homography(candidate, anchors.world_mm) - anchors.image_px
+        anchor_px = candidate(anchors.world_mm) - anchors.image_px
         weight = robust_scale_px / anchors.sigma_px
         return np.concatenate([edge_residuals(candidate), weight * anchor_px.ravel()])
 
+    if anchors is not None:
+        road_to_image.map_visible(anchors.world_mm, "anchor")
     result = least_squares(
-        residuals, model.from_homography(homography), loss="soft_l1", f_scale=robust_scale_px, x_scale="jac"
+        residuals, model.from_homography(road_to_image), loss="soft_l1", f_scale=robust_scale_px, x_scale="jac"
     )
-    refined = model.to_homography(result.x)
-    refined = refined / refined[2, 2]
+    refined = ProjectiveTransform(model.to_homography(result.x), front_sign)
     return refined, float(np.median(np.abs(edge_residuals(refined))))

@@ -25,6 +25,7 @@ import numpy as np
 import yaml
 
 from vehloc.errors import VehlocError
+from vehloc.geometry.projective import ProjectiveTransform
 
 
 class SiteError(VehlocError):
@@ -59,6 +60,17 @@ class Site:
     image_size_px: tuple[int, int] | None = None
     guess_points: tuple[tuple[tuple[float, float], tuple[float, float]], ...] = field(default=())
     stripes: tuple[SiteStripe, ...] = field(default=())
+
+    def initial_transform(self, image_size_px: tuple[int, int] | None = None) -> ProjectiveTransform:
+        """The rough road-to-image transform of the initial guess. Its visible side is that of the clicked
+        points, or, for a guess given as a matrix, that of the road at the bottom of the image
+        (`image_size_px` (width, height), else the site's own)."""
+        if self.guess_points:
+            return ProjectiveTransform.seen_from(self.initial_homography, np.array(self.guess_points[0][1]))
+        size = image_size_px or self.image_size_px
+        if size is None:
+            raise SiteError(f"site {self.name!r}: give image_size_px to tell which side of the guess's horizon is seen")
+        return ProjectiveTransform.road_to_image(self.initial_homography, *size)
 
     def world_corners_mm(self) -> tuple[np.ndarray, list[str]]:
         """All surveyed corners (M, 2) and their labels `marker_id:k`."""

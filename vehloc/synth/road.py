@@ -137,7 +137,7 @@ def render_road(
     texture_to_road = np.array(
         [[texture_mm_per_px, 0.0, -half_road], [0.0, texture_mm_per_px, layout.start_y_mm], [0.0, 0.0, 1.0]]
     )
-    texture_to_image = camera.road_homography() @ texture_to_road
+    texture_to_image = camera.road_to_image().matrix @ texture_to_road
     asphalt = cv2.warpPerspective(texture, texture_to_image, (width_px, height_px), flags=cv2.INTER_LINEAR)
     road_mask = np.zeros((height_px, width_px), np.uint8)
     road = _rectangle(-half_road, half_road, layout.start_y_mm, layout.end_y_mm)

@@ -152,7 +152,7 @@ def ground_truth(spec: SceneSpec, boxes: list[list[int] | None]) -> dict:
     model = model_by_id(spec.model_id)
     contacts_mm = spec.target_pose.car_to_world(tyre_contacts_car_mm(model))
     corners_mm = spec.target_pose.car_to_world(footprint_car_mm(model))
-    homography = camera.road_homography()
+    homography = camera.road_to_image().normalised_matrix
     markers = []
     for marker in spec.layout.markers():
         corners_px = camera.project(np.column_stack([marker.corners_mm, np.zeros(len(marker.corners_mm))]))
@@ -181,7 +181,7 @@ def ground_truth(spec: SceneSpec, boxes: list[list[int] | None]) -> dict:
             "width_px": camera.width_px,
             "height_px": camera.height_px,
         },
-        "homography_world_mm_to_image_px": (homography / homography[2, 2]).tolist(),
+        "homography_world_mm_to_image_px": homography.tolist(),
         "markers": markers,
         "car": {
             "model_id": model.model_id,
