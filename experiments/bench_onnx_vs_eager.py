@@ -20,12 +20,12 @@ import pandas as pd
 import torch
 
 from vehloc.infer.export import DeployedClassifier
-from vehloc.train.module import VehicleClassifier, load_classifier, read_checkpoint
+from vehloc.train.module import LitVehicleClassifier, load_classifier, read_checkpoint
 from vehloc.train.report import markdown_table
 
 
-def paper_model(num_classes: int, size_px: int) -> VehicleClassifier:
-    return VehicleClassifier(
+def paper_model(num_classes: int, size_px: int) -> LitVehicleClassifier:
+    return LitVehicleClassifier(
         class_model_ids=list(range(1, num_classes + 1)), class_makes=["make"] * num_classes,
         class_models=[f"model {i}" for i in range(num_classes)], class_dims_mm=[[4500.0, 1800.0, 1450.0]] * num_classes,
         backbone={"name": "googlenet", "pretrained": "none", "aux_logits": True, "dropout": 0.2},

@@ -26,7 +26,7 @@ import torch
 
 from vehloc.hardware import cpu_info
 from vehloc.train.instantiate import compose_config
-from vehloc.train.module import VehicleClassifier
+from vehloc.train.module import LitVehicleClassifier
 from vehloc.train.precision import resolve_precision
 from vehloc.train.report import markdown_table
 from vehloc.train.schedules import build_optimizer, param_groups
@@ -49,7 +49,7 @@ VARIANTS = (
 )
 
 
-def build_model(model_cfg, channels_last: bool) -> VehicleClassifier:
+def build_model(model_cfg, channels_last: bool) -> LitVehicleClassifier:
     """The demo experiment's network for 12 classes, from scratch (seed 0: every variant starts alike)."""
     torch.manual_seed(0)
     table = {"class_model_ids": list(range(1, DEMO_CLASSES + 1)), "class_makes": ["make"] * DEMO_CLASSES,
@@ -58,7 +58,7 @@ def build_model(model_cfg, channels_last: bool) -> VehicleClassifier:
     return hydra.utils.instantiate(model_cfg, **table, channels_last=channels_last, _convert_="all")
 
 
-def step_seconds(model: VehicleClassifier, optimizer: torch.optim.Optimizer, batch: tuple, bf16_autocast: bool,
+def step_seconds(model: LitVehicleClassifier, optimizer: torch.optim.Optimizer, batch: tuple, bf16_autocast: bool,
                  steps: int) -> list[float]:
     """Wall time of each of `steps` training steps on `batch`."""
     model.train()

@@ -1,4 +1,4 @@
-"""Training throughput of the workbench (Lightning Trainer + VehicleClassifier) against a plain PyTorch loop
+"""Training throughput of the workbench (Lightning Trainer + LitVehicleClassifier) against a plain PyTorch loop
 over the same model, batches and optimizer, and the data loader's images/s against the model's.
 
     .venv/bin/python experiments/bench_train_throughput.py --out outputs/bench_train_throughput \
@@ -25,7 +25,7 @@ import torch
 from torch.utils.data import DataLoader, Dataset
 
 from vehloc.train.instantiate import compose_config, instantiate_data_and_model
-from vehloc.train.module import VehicleClassifier
+from vehloc.train.module import LitVehicleClassifier
 from vehloc.train.report import markdown_table
 from vehloc.train.schedules import build_optimizer, param_groups
 
@@ -76,7 +76,7 @@ def loader_images_per_s(loader: DataLoader, batches: int) -> tuple[float, list]:
     return images / (time.perf_counter() - start_s), kept[1:]
 
 
-def plain_images_per_s(model: VehicleClassifier, loader: DataLoader, warmup: int, optim_cfg: dict) -> float:
+def plain_images_per_s(model: LitVehicleClassifier, loader: DataLoader, warmup: int, optim_cfg: dict) -> float:
     """A hand-written loop: model_step, backward, optimizer step, per batch."""
     opt = dict(optim_cfg)
     groups = param_groups(model.named_parameters(), model.head_prefixes, opt.pop("lr_backbone"),
@@ -97,8 +97,8 @@ def plain_images_per_s(model: VehicleClassifier, loader: DataLoader, warmup: int
     return images / (time.perf_counter() - start_s)
 
 
-def workbench_images_per_s(model: VehicleClassifier, loader: DataLoader, warmup: int) -> float:
-    """The workbench's training loop: Lightning Trainer + VehicleClassifier (metrics, schedule, progress bar)."""
+def workbench_images_per_s(model: LitVehicleClassifier, loader: DataLoader, warmup: int) -> float:
+    """The workbench's training loop: Lightning Trainer + LitVehicleClassifier (metrics, schedule, progress bar)."""
     timer = StepTimer(warmup)
     trainer = L.Trainer(
         accelerator="cpu", devices=1, max_epochs=1, limit_val_batches=0, num_sanity_val_steps=0,

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from vehloc.data.attributes import ModelAttributes, write_attributes
+from vehloc.data.boxes import Box
 from vehloc.data.compcars import write_label, write_split_list
 from vehloc.data.matfile import write_make_model_names
 from vehloc.data.specs import VehicleSpec, write_specs_csv
@@ -43,7 +44,7 @@ def write_tiny_compcars(root: Path) -> Path:
             image = np.full((30, 40, 3), (40 * i, 80, model_id * 5), dtype=np.uint8)
             (root / "image" / rel).parent.mkdir(parents=True, exist_ok=True)
             cv2.imwrite(str(root / "image" / rel), image)
-            write_label((root / "label" / rel).with_suffix(".txt"), 4, (3, 2, 38, 29))
+            write_label((root / "label" / rel).with_suffix(".txt"), 4, Box.from_compcars_label(3, 2, 38, 29))
             (test if i == 3 else train).append(rel)
     split_dir = root / "train_test_split" / "classification"
     write_split_list(split_dir / "train.txt", train)

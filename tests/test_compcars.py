@@ -6,6 +6,7 @@ from pathlib import Path
 
 import pytest
 
+from vehloc.data.boxes import Box
 from vehloc.data.compcars import (
     check_images,
     parse_label,
@@ -26,8 +27,7 @@ def test_reads_tiny_root(tiny_root: Path) -> None:
     assert data.attributes[12].type_code == 3
     sample = data.test[0]
     assert sample.viewpoint == 4
-    assert sample.box_1based_xyxy == (3, 2, 38, 29)
-    assert sample.crop_box_xyxy_px() == (2, 1, 38, 29)
+    assert sample.box == Box(2, 1, 38, 29) and sample.box.to_compcars_label() == (3, 2, 38, 29)
     assert [row["model"] for row in data.class_table()] == ["Alpha", "Beta", "Gamma"]
 
 
@@ -130,4 +130,4 @@ def test_malformed_labels(text: str, message: str) -> None:
 
 
 def test_label_with_uncertain_viewpoint() -> None:
-    assert parse_label("-1\n1\n1 1 597 333\n") == (-1, (1, 1, 597, 333))
+    assert parse_label("-1\n1\n1 1 597 333\n") == (-1, Box(0, 0, 597, 333))

@@ -101,15 +101,15 @@ def test_labels_hold_the_true_viewpoint_and_the_tight_box(demo_root: Path) -> No
     for sample in dataset.train + dataset.test:
         image = cv2.imread(str(sample.image_path))
         assert image is not None and image.shape == (height, width, 3)
-        x1, y1, x2, y2 = sample.box_1based_xyxy
-        assert 1 <= x1 < x2 <= width and 1 <= y1 < y2 <= height
+        x0, y0, x1, y1 = sample.box.as_tuple()
+        assert 0 <= x0 < x1 <= width and 0 <= y0 < y1 <= height
         index = int(Path(sample.rel_path).stem)
         scene = sample_scene(model_by_id(sample.model_id), 3, index)
         render = render_scene(scene)
-        assert render.box_1based_xyxy is not None
-        np.testing.assert_allclose(sample.box_1based_xyxy, render.box_1based_xyxy, atol=1)
+        assert render.box is not None
+        np.testing.assert_allclose(sample.box.as_tuple(), render.box.as_tuple(), atol=1)
         # The car is whole in the frame: its box does not touch the border.
-        assert 1 < x1 and x2 < width and 1 < y1 and y2 < height
+        assert not sample.box.touches_border(width, height)
         # Viewpoint from where the camera really is relative to the car's front.
         heading = np.radians(scene.pose.heading_deg)
         to_camera = scene.camera.centre_mm[:2] - np.array([scene.pose.x_mm, scene.pose.y_mm])

@@ -6,7 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from vehloc.geometry.roi import Box, RoiParams, VehicleRoiExtractor
+from vehloc.data.boxes import Box
+from vehloc.geometry.roi import RoiParams, VehicleRoiExtractor
 from vehloc.geometry.video import iter_frames
 
 # Cars read off frames 800 and 1500 by eye on a 3x enlargement with a 10 px grid (x0, y0, x1, y1 in

@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from vehloc.data.boxes import Box
 from vehloc.geometry.camera import NEAR_PLANE_MM, PinholeCamera, clip_to_near_plane
 from vehloc.synth.catalog import model_by_id
 from vehloc.synth.render import (
     CarPose,
     fill_world_polygon,
     render_car,
-    tight_box,
 )
 
 WHITE_RGB = (235, 235, 235)
@@ -44,13 +44,12 @@ def test_box_is_tight_around_the_pixels_the_car_covers() -> None:
     difference = on_white.image_bgr.astype(float) - on_black.image_bgr.astype(float)
     coverage = 1.0 - difference.mean(axis=2) / 255.0
     np.testing.assert_allclose(coverage, on_black.coverage, atol=2.5 / 255)
-    measured = tight_box(coverage >= 0.5)
-    assert measured is not None and on_black.box_xyxy_px is not None
-    np.testing.assert_allclose(measured, on_black.box_xyxy_px, atol=1)
-    x1, y1, x2, y2 = on_black.box_xyxy_px
-    assert 0 < x1 < x2 < 319 and 0 < y1 < y2 < 239
-    assert (x2 - x1) > 80 and (y2 - y1) > 40
-    assert on_black.box_1based_xyxy == (x1 + 1, y1 + 1, x2 + 1, y2 + 1)
+    measured = Box.tight(coverage >= 0.5)
+    assert measured is not None and on_black.box is not None
+    np.testing.assert_allclose(measured.as_tuple(), on_black.box.as_tuple(), atol=1)
+    x0, y0, x1, y1 = on_black.box.as_tuple()
+    assert 0 < x0 < x1 < 320 and 0 < y0 < y1 < 240
+    assert on_black.box.width_px > 80 and on_black.box.height_px > 40
     assert on_black.mask.sum() == (on_black.coverage >= 0.5).sum() > 2000
 
 
@@ -80,11 +79,11 @@ def test_ground_truth_points_are_projections_and_touch_the_rendered_tyres() -> N
 def test_heading_convention_turns_the_car_counter_clockwise() -> None:
     model = model_by_id(1)
     top_down = PinholeCamera.look_at([0.0, 0.0, 20000.0], [0.0, 0.0, 0.0], 300.0, 320, 240)
-    along_x = render_car(model, WHITE_RGB, CarPose(0.0, 0.0, 0.0), top_down, _uniform(128)).box_xyxy_px
-    along_y = render_car(model, WHITE_RGB, CarPose(0.0, 0.0, 90.0), top_down, _uniform(128)).box_xyxy_px
+    along_x = render_car(model, WHITE_RGB, CarPose(0.0, 0.0, 0.0), top_down, _uniform(128)).box
+    along_y = render_car(model, WHITE_RGB, CarPose(0.0, 0.0, 90.0), top_down, _uniform(128)).box
     assert along_x is not None and along_y is not None
-    assert along_x[2] - along_x[0] > 2 * (along_x[3] - along_x[1])  # long across the image (world X)
-    assert along_y[3] - along_y[1] > 2 * (along_y[2] - along_y[0])  # long up the image (world Y)
+    assert along_x.width_px > 2 * along_x.height_px  # long across the image (world X)
+    assert along_y.height_px > 2 * along_y.width_px  # long up the image (world Y)
     pose = CarPose(0.0, 0.0, 90.0)
     np.testing.assert_allclose(pose.car_to_world([[1000.0, 0.0, 0.0]]), [[0.0, 1000.0, 0.0]], atol=1e-9)
 

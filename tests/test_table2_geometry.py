@@ -8,7 +8,8 @@ from scene_configs import TABLE2_SCENES, scene_spec
 
 from vehloc.geometry.calibration import calibrate
 from vehloc.geometry.markers import detect_markers
-from vehloc.geometry.roi import Box, StoppedVehicleTracker, VehicleRoiExtractor
+from vehloc.data.boxes import Box
+from vehloc.geometry.roi import StoppedVehicleTracker, VehicleRoiExtractor
 from vehloc.synth.road import render_road
 from vehloc.synth.scene import render_frames
 from vehloc.synth.scene_site import scene_site
@@ -48,8 +49,7 @@ def test_roi_of_the_stopped_car(name: str) -> None:
     stops = []
     for frame_index, (frame, true_box) in enumerate(render_frames(spec)):
         for track in tracker.update(extractor.apply(frame), frame_index):
-            x1, y1, x2, y2 = true_box
-            stops.append((frame_index, track.box.iou(Box(x1, y1, x2 + 1, y2 + 1))))
+            stops.append((frame_index, track.box.iou(true_box)))
     assert len(stops) == 1, stops
     frame_index, iou = stops[0]
     assert spec.stop_frame <= frame_index <= spec.stop_frame + 20

@@ -14,7 +14,7 @@ from vehloc.errors import VehlocError
 from vehloc.train.backbones import build_backbone, imagenet_weights_path
 from vehloc.train.dataset import load_roi
 from vehloc.train.efficientnet_lite import EfficientNetLite0, lite0_weights_path
-from vehloc.train.transforms import eval_transform
+from vehloc.data.preprocess import Preprocessing
 
 # ImageNet-1k classes of road vehicles and their parts (cab, convertible, jeep, limousine, minivan, pickup,
 # sports car, beach wagon, car wheel, grille, minibus, racer, ...).
@@ -93,8 +93,8 @@ def test_lite0_imagenet_weights_recognise_real_car_photos(stanford_root: Path):
     backbone = build_backbone("efficientnet_lite0", num_classes=12, pretrained="imagenet")
     mean, std = (torch.tensor(v).view(1, 3, 1, 1) for v in (backbone.mean, backbone.std))
     samples = read_compcars(stanford_root).test[::7][:20]
-    transform = eval_transform(224, 256)
-    images = torch.stack([transform(load_roi(s, 0.0)) for s in samples])
+    preprocessing = Preprocessing(224, 256, 0.0, backbone.mean, backbone.std)
+    images = torch.stack([torch.from_numpy(preprocessing.to_input(load_roi(s, 0.0))) for s in samples])
     with torch.no_grad():
         top1 = net((images - mean) / std).argmax(dim=1).numpy()
     assert np.mean([c in IMAGENET_VEHICLE_CLASSES for c in top1]) >= 0.8

@@ -11,20 +11,13 @@ import torch
 from vehloc.errors import DataError
 from vehloc.train.datamodule import CompCarsDataModule, carve_validation
 from vehloc.train.dataset import load_roi
-from vehloc.train.transforms import enlarge_box_xyxy_px
-
-
-def test_enlarge_box_grows_each_side_and_clips():
-    assert enlarge_box_xyxy_px((100, 50, 200, 150), 0.10, 640, 480) == (90, 40, 210, 160)
-    assert enlarge_box_xyxy_px((2, 1, 38, 29), 0.10, 40, 30) == (0, 0, 40, 30)
-    assert enlarge_box_xyxy_px((10, 10, 20, 20), 0.0, 40, 30) == (10, 10, 20, 20)
 
 
 def test_roi_crop_is_the_enlarged_label_box(tiny_root: Path):
     dm = CompCarsDataModule(str(tiny_root), input_size_px=32, num_workers=0)
     sample = dm.dataset.train[0]  # box 1-based (3, 2, 38, 29) in a 40x30 image
-    assert load_roi(sample, 0.0).shape == (3, 28, 36)
-    assert load_roi(sample, 0.10).shape == (3, 30, 40)  # grown by 4 x 3 px a side, clipped to the image
+    assert load_roi(sample, 0.0).shape == (28, 36, 3)
+    assert load_roi(sample, 0.10).shape == (30, 40, 3)  # grown by 4 x 3 px a side, clipped to the image
 
 
 def test_loaders_yield_normalisable_batches_with_indices(tiny_root: Path):

@@ -13,15 +13,15 @@ import torch.nn.functional as F
 
 from vehloc.train.checkpoint_io import AtomicCheckpointIO
 from vehloc.train.metrics import DimensionError
-from vehloc.train.module import VehicleClassifier
+from vehloc.train.module import LitVehicleClassifier
 from vehloc.train.schedules import WarmupCosine, WarmupStep, param_groups
 from vehloc.train.table1 import ClassTable, evaluate_predictions
 
 DIMS_MM = [[4500.0, 1800.0, 1450.0], [4600.0, 1850.0, 1470.0], [4000.0, 1700.0, 1600.0]]
 
 
-def make_classifier(**kwargs) -> VehicleClassifier:
-    return VehicleClassifier(
+def make_classifier(**kwargs) -> LitVehicleClassifier:
+    return LitVehicleClassifier(
         class_model_ids=[11, 12, 25], class_makes=["M", "M", "N"], class_models=["A", "B", "C"], class_dims_mm=DIMS_MM,
         backbone={"name": "googlenet", "pretrained": "none", "aux_logits": True},
         optimizer={"name": "sgd", "lr_backbone": 0.001, "lr_head": 0.01, "weight_decay": 1e-4},

@@ -22,6 +22,7 @@ import cv2
 import numpy as np
 
 from vehloc.data.attributes import ModelAttributes, read_attributes
+from vehloc.data.boxes import Box
 from vehloc.data.matfile import read_make_model_names
 from vehloc.errors import DataError
 
@@ -50,12 +51,7 @@ class CompCarsSample:
     image_path: Path
     label_path: Path
     viewpoint: int
-    box_1based_xyxy: tuple[int, int, int, int]
-
-    def crop_box_xyxy_px(self) -> tuple[int, int, int, int]:
-        """The box as 0-based, half-open pixel bounds (x0, y0, x1, y1) for array slicing."""
-        x1, y1, x2, y2 = self.box_1based_xyxy
-        return x1 - 1, y1 - 1, x2, y2
+    box: Box
 
 
 @dataclass(frozen=True)
@@ -132,8 +128,8 @@ def parse_split_line(line: str) -> tuple[int, int, str, str]:
     return int(make), int(model), year, name
 
 
-def parse_label(text: str) -> tuple[int, tuple[int, int, int, int]]:
-    """Parse a label file's text into (viewpoint, 1-based box); ValueError naming the bad line."""
+def parse_label(text: str) -> tuple[int, Box]:
+    """Parse a label file's text into (viewpoint, box); ValueError naming the bad line."""
     lines = [ln.strip() for ln in text.strip().splitlines()]
     if len(lines) < 3:
         raise ValueError(f"expected 3 lines (viewpoint, box count, box), found {len(lines)}")
@@ -155,7 +151,7 @@ def parse_label(text: str) -> tuple[int, tuple[int, int, int, int]]:
     x1, y1, x2, y2 = (int(f) for f in fields)
     if x1 < 1 or y1 < 1 or x2 < x1 or y2 < y1:
         raise ValueError(f"line 3: box {x1} {y1} {x2} {y2} is not a 1-based box with x1<=x2, y1<=y2")
-    return viewpoint, (x1, y1, x2, y2)
+    return viewpoint, Box.from_compcars_label(x1, y1, x2, y2)
 
 
 def _read_split(root: Path, split: str, problems: list[str]) -> list[CompCarsSample]:
@@ -262,8 +258,8 @@ def check_images(samples: Sequence[CompCarsSample]) -> list[str]:
             problems.append(f"{sample.image_path}: not a readable image")
             continue
         height_px, width_px = image.shape[:2]
-        x1, y1, x2, y2 = sample.box_1based_xyxy
-        if x2 > width_px or y2 > height_px:
+        if sample.box.clipped(width_px, height_px) != sample.box:
+            x1, y1, x2, y2 = sample.box.to_compcars_label()
             problems.append(
                 f"{sample.label_path}: box {x1} {y1} {x2} {y2} leaves the {width_px}x{height_px} image"
             )
@@ -289,8 +285,8 @@ def summarize(dataset: CompCarsSet) -> str:
         views = Counter(s.viewpoint for s in samples)
         view_text = ", ".join(f"{VIEWPOINT_NAMES[v]} {views[v]}" for v in sorted(views))
         lines.append(f"  viewpoints: {view_text}")
-        widths = np.array([s.box_1based_xyxy[2] - s.box_1based_xyxy[0] + 1 for s in samples])
-        heights = np.array([s.box_1based_xyxy[3] - s.box_1based_xyxy[1] + 1 for s in samples])
+        widths = np.array([s.box.width_px for s in samples])
+        heights = np.array([s.box.height_px for s in samples])
         lines.append(
             "  box width px: min {} / median {:.0f} / max {}; height px: min {} / median {:.0f} / max {}".format(
                 widths.min(), np.median(widths), widths.max(),
@@ -300,12 +296,14 @@ def summarize(dataset: CompCarsSet) -> str:
     return "\n".join(lines)
 
 
-def write_label(path: Path, viewpoint: int, box_1based_xyxy: tuple[int, int, int, int]) -> None:
+def write_label(path: Path, viewpoint: int, box: Box) -> None:
     """Write a one-box label file: viewpoint, `1`, `x1 y1 x2 y2` (1-based, inclusive)."""
     if viewpoint not in VIEWPOINT_NAMES:
         raise ValueError(f"viewpoint {viewpoint} not in {sorted(VIEWPOINT_NAMES)}")
+    if box.is_empty or box.x0 < 0 or box.y0 < 0:
+        raise ValueError(f"box {box.as_tuple()} is empty or starts outside the image")
     path.parent.mkdir(parents=True, exist_ok=True)
-    x1, y1, x2, y2 = box_1based_xyxy
+    x1, y1, x2, y2 = box.to_compcars_label()
     path.write_text(f"{viewpoint}\n1\n{x1} {y1} {x2} {y2}\n")
 
 

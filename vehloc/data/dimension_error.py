@@ -35,11 +35,20 @@ def dimension_errors(pred_dims_mm: np.ndarray, true_dims_mm: np.ndarray) -> Dime
     return DimensionErrors(abs_mm=abs_mm, rel_pct=100.0 * abs_mm / true)
 
 
-def expected_dims_mm(probabilities: np.ndarray, class_dims_mm: np.ndarray, top_k: int | None = None) -> np.ndarray:
-    """Probability-weighted dimensions (N, 3), over the top-k classes of each row (all when None)."""
+def top_k_classes(probabilities: np.ndarray, k: int) -> np.ndarray:
+    """(N, k) class indices of each row's k highest probabilities, highest first; ties go to the lower
+    class index, so exactly k classes are kept."""
     probs = np.asarray(probabilities, dtype=float)
-    if top_k is not None and top_k < probs.shape[1]:
-        cutoff = np.sort(probs, axis=1)[:, -top_k][:, None]
-        probs = np.where(probs >= cutoff, probs, 0.0)
-    probs = probs / probs.sum(axis=1, keepdims=True)
-    return probs @ np.asarray(class_dims_mm, dtype=float)
+    return np.argsort(-probs, axis=1, kind="stable")[:, :k]
+
+
+def expected_dims_mm(probabilities: np.ndarray, class_dims_mm: np.ndarray, top_k: int | None = None) -> np.ndarray:
+    """Probability-weighted dimensions (N, 3) over exactly the top-k classes of each row (see
+    `top_k_classes`; all classes when None), the k probabilities renormalised to sum to 1."""
+    probs = np.asarray(probabilities, dtype=float)
+    dims = np.asarray(class_dims_mm, dtype=float)
+    k = probs.shape[1] if top_k is None else min(top_k, probs.shape[1])
+    top = top_k_classes(probs, k)
+    weights = np.take_along_axis(probs, top, axis=1)
+    weights = weights / weights.sum(axis=1, keepdims=True)
+    return np.einsum("nk,nkd->nd", weights, dims[top])

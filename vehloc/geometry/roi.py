@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from vehloc.train.transforms import enlarge_box_xyxy_px
+from vehloc.data.boxes import Box
 
 MOG2_SHADOW_VALUE = 127
 MOG2_FOREGROUND_VALUE = 255
@@ -36,42 +36,6 @@ class RoiParams:
     open_kernel_px: int = 3
     close_kernel_px: int = 9
     min_area_fraction: float = 0.002
-
-
-@dataclass(frozen=True)
-class Box:
-    """Axis-aligned box in pixels, half-open: x0 <= x < x1, y0 <= y < y1."""
-
-    x0: int
-    y0: int
-    x1: int
-    y1: int
-
-    @property
-    def width_px(self) -> int:
-        return self.x1 - self.x0
-
-    @property
-    def height_px(self) -> int:
-        return self.y1 - self.y0
-
-    @property
-    def area_px(self) -> int:
-        return max(0, self.width_px) * max(0, self.height_px)
-
-    @property
-    def centre_px(self) -> np.ndarray:
-        return np.array([(self.x0 + self.x1) / 2, (self.y0 + self.y1) / 2])
-
-    def iou(self, other: Box) -> float:
-        overlap = Box(max(self.x0, other.x0), max(self.y0, other.y0), min(self.x1, other.x1), min(self.y1, other.y1))
-        inter = overlap.area_px if overlap.x1 > overlap.x0 and overlap.y1 > overlap.y0 else 0
-        union = self.area_px + other.area_px - inter
-        return inter / union if union else 0.0
-
-    def enlarged(self, fraction: float, width_px: int, height_px: int) -> Box:
-        """The box grown by `fraction` of its size on each side, clipped to the image (as in training)."""
-        return Box(*enlarge_box_xyxy_px((self.x0, self.y0, self.x1, self.y1), fraction, width_px, height_px))
 
 
 def local_correlation(image: np.ndarray, reference: np.ndarray, window_px: int) -> tuple[np.ndarray, np.ndarray]:

@@ -1,5 +1,5 @@
-"""The onnxruntime vehicle classifier that everything downstream uses: ROI crops in, models and
-dimensions out."""
+"""The onnxruntime vehicle classifier that everything downstream uses: vehicle images (ROI crops, or whole
+images with their vehicle boxes) in, models and dimensions out."""
 
 from __future__ import annotations
 
@@ -10,10 +10,11 @@ from pathlib import Path
 import numpy as np
 import onnxruntime as ort
 
+from vehloc.data.boxes import Box
 from vehloc.data.dimension_error import expected_dims_mm
 from vehloc.data.specs import VehicleSpec
 from vehloc.infer.metadata import ModelFileError, ModelMetadata, read_metadata
-from vehloc.infer.preprocess import load_bgr, to_input
+from vehloc.infer.preprocess import ImageInputError, load_bgr
 
 
 @dataclass(frozen=True)
@@ -70,24 +71,54 @@ class VehicleClassifier:
     def classes(self) -> tuple[VehicleSpec, ...]:
         return self.metadata.classes
 
-    def probabilities(self, images: Sequence[np.ndarray | str | Path], batch_size: int = 32) -> np.ndarray:
-        """(N, C) class probabilities of BGR crops or image paths."""
+    def inputs(self, images: Sequence[np.ndarray | str | Path], boxes: Sequence[Box] | None = None) -> np.ndarray:
+        """(N, 3, S, S) network inputs of BGR images or image paths: each image whole, or, with `boxes`, its
+        vehicle ROI (the box enlarged as in training), through the model's preprocessing."""
+        if boxes is not None and len(boxes) != len(images):
+            raise ValueError(f"{len(images)} images but {len(boxes)} boxes")
+        preprocessing = self.metadata.preprocessing
+        inputs = []
+        for i, image in enumerate(images):
+            name = str(image) if isinstance(image, (str, Path)) else f"image {i}"
+            bgr = load_bgr(image, name)
+            if boxes is not None:
+                try:
+                    bgr = load_bgr(preprocessing.roi(bgr, boxes[i]), f"{name}, box {boxes[i].as_tuple()}")
+                except ValueError as err:
+                    raise ImageInputError(f"{name}: {err}") from None
+            inputs.append(preprocessing.to_input(bgr))
+        size = preprocessing.input_size_px
+        return np.stack(inputs) if inputs else np.zeros((0, 3, size, size), np.float32)
+
+    def _run(self, inputs: np.ndarray, output: str, batch_size: int) -> np.ndarray:
         meta = self.metadata
-        inputs = [to_input(load_bgr(image, f"image {i}"), meta.resize_px, meta.input_size_px) for i, image in enumerate(images)]
-        if not inputs:
+        if not len(inputs):
             return np.zeros((0, len(meta.classes)), dtype=np.float32)
-        outputs = []
-        for start in range(0, len(inputs), batch_size):
-            batch = np.stack(inputs[start:start + batch_size])
-            outputs.append(self.session.run([meta.output_names[1]], {meta.input_name: batch})[0])
-        return np.concatenate(outputs)
+        return np.concatenate([
+            self.session.run([output], {meta.input_name: inputs[start:start + batch_size]})[0]
+            for start in range(0, len(inputs), batch_size)
+        ])
+
+    def logits(self, images: Sequence[np.ndarray | str | Path], boxes: Sequence[Box] | None = None,
+               batch_size: int = 32) -> np.ndarray:
+        """(N, C) class logits (see `inputs`)."""
+        return self._run(self.inputs(images, boxes), self.metadata.output_names[0], batch_size)
+
+    def probabilities(self, images: Sequence[np.ndarray | str | Path], boxes: Sequence[Box] | None = None,
+                      batch_size: int = 32) -> np.ndarray:
+        """(N, C) class probabilities (see `inputs`)."""
+        return self._run(self.inputs(images, boxes), self.metadata.output_names[1], batch_size)
 
     def predict(
-        self, images: Sequence[np.ndarray | str | Path], top_k: int = 5, batch_size: int = 32
+        self, images: Sequence[np.ndarray | str | Path], top_k: int = 5, batch_size: int = 32,
+        boxes: Sequence[Box] | None = None,
     ) -> list[Prediction]:
         """Top-k models with probabilities, the top-1 model's dimensions and the expected dimensions
-        (probability-weighted over the model's `expected_top_k` best classes) of each image."""
-        probabilities = self.probabilities(images, batch_size)
+        (probability-weighted over the model's `expected_top_k` best classes) of each image (see `inputs`)."""
+        return self.predictions(self.probabilities(images, boxes, batch_size), top_k)
+
+    def predictions(self, probabilities: np.ndarray, top_k: int = 5) -> list[Prediction]:
+        """Predictions from (N, C) class probabilities (e.g. averaged over a track's frames)."""
         dims = self.metadata.dims_mm
         expected = expected_dims_mm(probabilities, dims, self.metadata.expected_top_k) if len(probabilities) else []
         predictions = []

@@ -2,9 +2,12 @@
 
 The eval-mode model (single output, no auxiliary heads) with its normalisation and a softmax goes to
 ONNX with a dynamic batch axis; the file gets the vehloc metadata, passes
-`onnx.checker.check_model(full_check=True)`, and must reproduce the PyTorch logits on real images
-(max abs difference and identical top-1). It is written under a temporary name and renamed over the
-output only then, so a failed export never replaces a good file.
+`onnx.checker.check_model(full_check=True)`, and must reproduce the PyTorch logits on real images, each
+side from the image file through its own pipeline: the training code's evaluation data set for PyTorch,
+the onnxruntime classifier for ONNX (max abs difference and identical top-1). It is written under a
+temporary name and renamed over the output only then, so a failed export never replaces a good file.
+
+This module is where deployment meets training: it needs torch, the rest of `vehloc.infer` does not.
 """
 
 from __future__ import annotations
@@ -17,17 +20,16 @@ from pathlib import Path
 
 import numpy as np
 import onnx
-import onnxruntime as ort
 import torch
 
 from vehloc.data.compcars import CompCarsSample
 from vehloc.data.specs import VehicleSpec
 from vehloc.errors import VehlocError
+from vehloc.infer.classifier import VehicleClassifier
 from vehloc.infer.metadata import ModelMetadata, attach_metadata
-from vehloc.infer.preprocess import load_bgr, to_input
-from vehloc.train.module import VehicleClassifier as LightningClassifier
-from vehloc.train.module import load_classifier, read_checkpoint
-from vehloc.train.transforms import enlarged_roi
+from vehloc.train.dataset import CompCarsCrops
+from vehloc.train.module import LitVehicleClassifier, load_classifier, preprocessing_of, read_checkpoint
+from vehloc.train.transforms import EvalTransform
 
 DEFAULT_OPSET = 18
 
@@ -50,7 +52,7 @@ class ExportReport:
 class DeployedClassifier(torch.nn.Module):
     """The classifier as deployed: RGB [0, 1] images in, logits and probabilities out."""
 
-    def __init__(self, classifier: LightningClassifier) -> None:
+    def __init__(self, classifier: LitVehicleClassifier) -> None:
         super().__init__()
         self.classifier = classifier
 
@@ -67,11 +69,6 @@ def file_sha256(path: Path) -> str:
     return digest.hexdigest()
 
 
-def roi_crops(samples: Sequence[CompCarsSample], enlarge_fraction: float) -> list[np.ndarray]:
-    """The labelled ROI of each sample, enlarged as in training, as BGR arrays."""
-    return [enlarged_roi(load_bgr(s.image_path), s.crop_box_xyxy_px(), enlarge_fraction) for s in samples]
-
-
 def metadata_of(checkpoint: dict, checkpoint_path: Path) -> ModelMetadata:
     """The metadata of a checkpoint's classifier: its class table and preprocessing."""
     hp = checkpoint["hyper_parameters"]
@@ -82,42 +79,45 @@ def metadata_of(checkpoint: dict, checkpoint_path: Path) -> ModelMetadata:
             hp["class_model_ids"], hp["class_makes"], hp["class_models"], hp["class_dims_mm"], wheelbases
         )
     )
-    model = load_classifier(checkpoint)
     return ModelMetadata(
         classes=classes,
-        input_size_px=int(hp["input_size_px"]),
-        resize_px=int(hp["eval_resize_px"]),
-        roi_enlarge_fraction=float(hp["roi_enlarge_fraction"]),
-        mean=tuple(float(v) for v in model.mean.flatten()),
-        std=tuple(float(v) for v in model.std.flatten()),
+        preprocessing=preprocessing_of(checkpoint, checkpoint_path),
         backbone=str(hp["backbone"]["name"]),
         source_checkpoint_sha256=file_sha256(checkpoint_path),
         expected_top_k=int(hp.get("expected_top_k", 5)),
     )
 
 
+def pytorch_inputs(samples: Sequence[CompCarsSample], metadata: ModelMetadata) -> torch.Tensor:
+    """The evaluation inputs of labelled images as training's data set makes them, from the files."""
+    preprocessing = metadata.preprocessing
+    dataset = CompCarsCrops(samples, [0] * len(samples), EvalTransform(preprocessing), preprocessing.roi_enlarge_fraction)
+    return torch.stack([dataset[i][0] for i in range(len(dataset))])
+
+
 def export_checkpoint(
     checkpoint_path: Path,
     output: Path,
-    parity_crops: Sequence[np.ndarray],
+    parity_samples: Sequence[CompCarsSample],
     opset: int = DEFAULT_OPSET,
     tolerance: float = 1e-4,
 ) -> ExportReport:
-    """Export, check and atomically place the ONNX model of a checkpoint (see the module docstring)."""
+    """Export, check and atomically place the ONNX model of a checkpoint (see the module docstring); the
+    parity check runs on `parity_samples`, labelled images of the checkpoint's kind."""
     if opset < 17:
         raise ExportError(f"opset {opset} is below 17, the lowest vehloc exports")
-    if not parity_crops:
+    if not parity_samples:
         raise ExportError("the parity check needs at least one real image")
     checkpoint = read_checkpoint(checkpoint_path)
     metadata = metadata_of(checkpoint, Path(checkpoint_path))
     deployed = DeployedClassifier(load_classifier(checkpoint)).eval()
-    images = np.stack([to_input(crop, metadata.resize_px, metadata.input_size_px) for crop in parity_crops])
+    images = pytorch_inputs(parity_samples, metadata)
 
     output = Path(output)
     output.parent.mkdir(parents=True, exist_ok=True)
     temporary = output.with_name(f".{output.name}.{os.getpid()}.tmp")
     try:
-        example = torch.from_numpy(images[:2])
+        example = images[:2]
         torch.onnx.export(
             deployed, (example,), str(temporary), input_names=[metadata.input_name],
             output_names=list(metadata.output_names), opset_version=opset, dynamo=True,
@@ -127,7 +127,7 @@ def export_checkpoint(
         attach_metadata(model, metadata)
         onnx.save(model, str(temporary))
         onnx.checker.check_model(str(temporary), full_check=True)
-        report = _parity(deployed, temporary, images, metadata, tolerance, opset, output)
+        report = _parity(deployed, temporary, images, parity_samples, tolerance, opset, output)
         os.replace(temporary, output)
         return report
     finally:
@@ -135,13 +135,13 @@ def export_checkpoint(
 
 
 def _parity(
-    deployed: DeployedClassifier, path: Path, images: np.ndarray, metadata: ModelMetadata, tolerance: float, opset: int,
-    output: Path,
+    deployed: DeployedClassifier, path: Path, images: torch.Tensor, samples: Sequence[CompCarsSample],
+    tolerance: float, opset: int, output: Path,
 ) -> ExportReport:
     with torch.no_grad():
-        eager = deployed(torch.from_numpy(images))[0].numpy()
-    session = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
-    exported = session.run([metadata.output_names[0]], {metadata.input_name: images})[0]
+        eager = deployed(images)[0].numpy()
+    classifier = VehicleClassifier.from_onnx(path, providers=["CPUExecutionProvider"])
+    exported = classifier.logits([s.image_path for s in samples], [s.box for s in samples])
     max_diff = float(np.max(np.abs(exported - eager)))
     agreement = float(np.mean(exported.argmax(axis=1) == eager.argmax(axis=1)))
     if max_diff > tolerance or agreement < 1.0:

@@ -9,7 +9,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from vehloc.data.compcars import read_compcars
 from vehloc.errors import VehlocError, exit_on_error
-from vehloc.infer.export import export_checkpoint, roi_crops
+from vehloc.infer.export import export_checkpoint
 from vehloc.train.instantiate import CONF_DIR
 from vehloc.train.module import read_checkpoint
 
@@ -26,12 +26,11 @@ def _run(cfg: DictConfig) -> None:
     if OmegaConf.is_missing(cfg, "ckpt_path") or not cfg.ckpt_path:
         raise VehlocError("ckpt_path=PATH is required: the checkpoint to export")
     checkpoint_path = Path(cfg.ckpt_path)
-    enlarge = float(read_checkpoint(checkpoint_path)["hyper_parameters"]["roi_enlarge_fraction"])
+    read_checkpoint(checkpoint_path)  # a missing or foreign checkpoint is named before the data is read
     test = read_compcars(cfg.data_root).test
     step = max(1, len(test) // cfg.parity_images)
-    crops = roi_crops(test[::step][: cfg.parity_images], enlarge)
     output = Path(cfg.output) if cfg.output else default_output(checkpoint_path)
-    report = export_checkpoint(checkpoint_path, output, crops, cfg.opset, cfg.tolerance)
+    report = export_checkpoint(checkpoint_path, output, test[::step][: cfg.parity_images], cfg.opset, cfg.tolerance)
     print(
         f"wrote {report.output} (opset {report.opset}); parity on {report.parity_images} test images of "
         f"{cfg.data_root}: max |logit diff| {report.max_abs_logit_diff:.2e}, same top-1 on {report.top1_agreement:.0%}"

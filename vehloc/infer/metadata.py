@@ -1,8 +1,10 @@
 """What a vehloc ONNX file carries besides its graph: classes, their dimensions, preprocessing.
 
 Stored as one JSON document under the metadata key `vehloc`, so that a user needs nothing but the
-`.onnx` file: the classes are the specs rows of their models (id, make, model, L/W/H, wheelbase); the graph takes RGB images scaled to [0, 1] (N, 3, S, S), normalises them itself
-(mean/std below, recorded for reference) and returns logits and probabilities per class.
+`.onnx` file: the classes are the specs rows of their models (id, make, model, L/W/H, wheelbase), and the
+preprocessing is the one of `vehloc.data.preprocess` (ROI enlargement, resize, crop, RGB in [0, 1]); the
+graph takes (N, 3, S, S) inputs, normalises them itself (the preprocessing's mean/std, recorded for
+reference) and returns logits and probabilities per class.
 """
 
 from __future__ import annotations
@@ -13,11 +15,12 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 import onnx
 
+from vehloc.data.preprocess import Preprocessing
 from vehloc.data.specs import VehicleSpec
 from vehloc.errors import VehlocError
 
 METADATA_KEY = "vehloc"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 
 
 class ModelFileError(VehlocError):
@@ -29,16 +32,10 @@ class ModelMetadata:
     """Everything needed to use an exported classifier."""
 
     classes: tuple[VehicleSpec, ...]
-    input_size_px: int
-    resize_px: int
-    roi_enlarge_fraction: float
-    mean: tuple[float, float, float]
-    std: tuple[float, float, float]
+    preprocessing: Preprocessing
     backbone: str
     source_checkpoint_sha256: str
     expected_top_k: int = 5
-    colour_order: str = "RGB"
-    input_range: tuple[float, float] = (0.0, 1.0)
     input_name: str = "images"
     output_names: tuple[str, str] = ("logits", "probabilities")
     format_version: int = FORMAT_VERSION
@@ -50,17 +47,23 @@ class ModelMetadata:
         return np.array([c.dims_mm for c in self.classes], dtype=float).reshape(-1, 3)
 
     def to_json(self) -> str:
-        return json.dumps(asdict(self), sort_keys=True)
+        return json.dumps({**asdict(self), "preprocessing": self.preprocessing.as_dict()}, sort_keys=True)
 
     @classmethod
     def from_json(cls, text: str, source: str) -> ModelMetadata:
         try:
             values = json.loads(text)
+            version = values.get("format_version")
+            if version != FORMAT_VERSION:
+                raise ModelFileError(
+                    f"{source}: vehloc metadata format {version}, this vehloc reads format {FORMAT_VERSION} "
+                    "(export the checkpoint again with vehloc-export)"
+                )
             values["classes"] = tuple(VehicleSpec(**entry) for entry in values["classes"])
-            for key in ("mean", "std", "input_range", "output_names"):
-                values[key] = tuple(values[key])
+            values["preprocessing"] = Preprocessing.from_dict(values["preprocessing"])
+            values["output_names"] = tuple(values["output_names"])
             return cls(**values)
-        except (json.JSONDecodeError, KeyError, TypeError) as exc:
+        except (json.JSONDecodeError, KeyError, TypeError, ValueError, AttributeError) as exc:
             raise ModelFileError(f"{source}: malformed vehloc metadata ({exc})") from None
 
 

@@ -9,14 +9,12 @@ import argparse
 import sys
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
+from vehloc.data.boxes import Box
 from vehloc.data.compcars import parse_label
 from vehloc.errors import DataError, exit_on_error
 from vehloc.infer.classifier import VehicleClassifier
-from vehloc.infer.preprocess import load_bgr
-from vehloc.train.transforms import enlarged_roi
 
 
 def label_path_of(image_path: Path) -> Path:
@@ -28,29 +26,25 @@ def label_path_of(image_path: Path) -> Path:
     return Path(*parts[:at], "label", *parts[at + 1:]).with_suffix(".txt")
 
 
-def labelled_roi(image_path: Path, enlarge_fraction: float) -> np.ndarray:
-    """The vehicle ROI of a CompCars image: its label's box enlarged by `enlarge_fraction` on each side."""
+def label_box(image_path: Path) -> Box:
+    """The vehicle box of a CompCars image, from its label file."""
     label_path = label_path_of(image_path)
     if not label_path.is_file():
         raise DataError(f"{label_path}: the label file of {image_path} does not exist")
     try:
-        _, (x1, y1, x2, y2) = parse_label(label_path.read_text())
+        return parse_label(label_path.read_text())[1]
     except ValueError as err:
         raise DataError(f"{label_path}: {err}") from None
-    try:
-        return enlarged_roi(load_bgr(image_path), (x1 - 1, y1 - 1, x2, y2), enlarge_fraction)
-    except ValueError as err:
-        raise DataError(f"{label_path}: {err} ({image_path})") from None
 
 
 def prediction_table(
     model: VehicleClassifier, images: list[Path], top_k: int, compcars_labels: bool = False
 ) -> pd.DataFrame:
-    """One row per image and rank: model id, make, model, probability, and the image's dimension estimates."""
-    fraction = model.metadata.roi_enlarge_fraction
-    inputs = [labelled_roi(image, fraction) for image in images] if compcars_labels else images
+    """One row per image and rank: model id, make, model, probability, and the image's dimension estimates.
+    With `compcars_labels` each image is classified in the box of its label file (enlarged as in training)."""
+    boxes = [label_box(image) for image in images] if compcars_labels else None
     rows = []
-    for image, prediction in zip(images, model.predict(inputs, top_k=top_k)):
+    for image, prediction in zip(images, model.predict(images, top_k=top_k, boxes=boxes)):
         for rank, candidate in enumerate(prediction.top_k, start=1):
             rows.append({
                 "image": str(image), "rank": rank, "model_id": candidate.model_id, "make": candidate.make,

@@ -195,13 +195,13 @@ def _write_image(task: tuple[Path, int, int, int, str]) -> str:
     model = model_by_id(model_id)
     scene = sample_scene(model, seed, index, views)
     render = render_scene(scene)
-    if render.box_1based_xyxy is None:
+    if render.box is None:
         raise RuntimeError(f"{model.name} image {index}: the car is not in the frame")
     rel = relative_image_path(model, index)
     image_path = root / "image" / rel
     image_path.parent.mkdir(parents=True, exist_ok=True)
     image_path.write_bytes(encode_scene(scene, render, seed, index))
-    write_label((root / "label" / rel).with_suffix(".txt"), scene.viewpoint, render.box_1based_xyxy)
+    write_label((root / "label" / rel).with_suffix(".txt"), scene.viewpoint, render.box)
     return rel
 
 

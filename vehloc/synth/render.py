@@ -12,6 +12,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from vehloc.data.boxes import Box
+
 from vehloc.geometry.camera import NEAR_PLANE_MM, PinholeCamera
 from vehloc.synth.body import Material, Mesh, build_car_mesh
 from vehloc.synth.catalog import RGB, CarModel
@@ -89,15 +91,15 @@ _FINISHES: dict[Material, _Finish] = {
 class CarRender:
     """A rendered car over its background, with its ground truth in the image.
 
-    ``coverage``: fraction of each pixel covered by the car (H, W). ``box_xyxy_px``: tight box of the
-    pixels covered at least half, 0-based inclusive (x1, y1, x2, y2), or None when none is.
+    ``coverage``: fraction of each pixel covered by the car (H, W). ``box``: tight box of the pixels
+    covered at least half, or None when none is.
     Tyre contact points are ordered front-left, front-right, rear-left, rear-right; footprint corners
     front-left, front-right, rear-right, rear-left (world mm, and pixels).
     """
 
     image_bgr: np.ndarray
     coverage: np.ndarray
-    box_xyxy_px: tuple[int, int, int, int] | None
+    box: Box | None
     tyre_contacts_mm: np.ndarray
     tyre_contacts_px: np.ndarray
     footprint_corners_mm: np.ndarray
@@ -107,18 +109,6 @@ class CarRender:
     def mask(self) -> np.ndarray:
         return self.coverage >= 0.5
 
-    @property
-    def box_1based_xyxy(self) -> tuple[int, int, int, int] | None:
-        """The box in CompCars label convention (1-based, inclusive)."""
-        return None if self.box_xyxy_px is None else tuple(v + 1 for v in self.box_xyxy_px)
-
-
-def tight_box(mask: np.ndarray) -> tuple[int, int, int, int] | None:
-    """Tight 0-based inclusive (x1, y1, x2, y2) of the true pixels of a mask, None when empty."""
-    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-    if len(rows) == 0:
-        return None
-    return int(cols[0]), int(rows[0]), int(cols[-1]), int(rows[-1])
 
 
 def tyre_contacts_car_mm(model: CarModel) -> np.ndarray:
@@ -198,9 +188,9 @@ def _draw_shadow(
         fill_world_polygon(shadow, camera, corners, (1.0,))
         if not shadow.any():
             continue
-        box = tight_box(shadow > 0)
+        box = Box.tight(shadow > 0)
         assert box is not None
-        sigma = max(1.0, blur_frac * max(box[2] - box[0], box[3] - box[1]))
+        sigma = max(1.0, blur_frac * max(box.width_px - 1, box.height_px - 1))
         shadow = cv2.GaussianBlur(shadow, (0, 0), sigma)
         image *= (1.0 - weight * shadow)[:, :, None]
 
@@ -262,7 +252,7 @@ def render_car(
     return CarRender(
         image_bgr=image_bgr,
         coverage=coverage,
-        box_xyxy_px=tight_box(coverage >= 0.5),
+        box=Box.tight(coverage >= 0.5),
         tyre_contacts_mm=contacts_mm,
         tyre_contacts_px=camera.project(contacts_mm),
         footprint_corners_mm=corners_mm,

@@ -18,6 +18,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from vehloc.data.boxes import Box
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.synth.catalog import model_by_id
 from vehloc.synth.render import (
@@ -115,19 +116,15 @@ def car_pose_at(spec: SceneSpec, frame: int) -> CarPose | None:
     )
 
 
-def _box_or_none(render_box: tuple[int, int, int, int] | None) -> list[int] | None:
-    return None if render_box is None else [int(v) for v in render_box]
-
-
-def render_frames(spec: SceneSpec) -> Iterator[tuple[np.ndarray, list[int] | None]]:
-    """Yield (frame, car box as 0-based inclusive x1 y1 x2 y2 or None) for every frame of the scene."""
+def render_frames(spec: SceneSpec) -> Iterator[tuple[np.ndarray, Box | None]]:
+    """Yield (frame, car box or None) for every frame of the scene."""
     camera = spec.camera.camera()
     rng = np.random.default_rng(spec.seed)
     background = render_road(camera, spec.layout, rng)
     model = model_by_id(spec.model_id)
     colour = model.palette[spec.colour_index % len(model.palette)][1]
     lighting = Lighting.from_angles(spec.light_azimuth_deg, spec.light_elevation_deg, 0.45, 0.6)
-    still: tuple[np.ndarray, list[int] | None] | None = None
+    still: tuple[np.ndarray, Box | None] | None = None
     for frame in range(spec.frame_count):
         pose = car_pose_at(spec, frame)
         if pose is None:
@@ -137,7 +134,7 @@ def render_frames(spec: SceneSpec) -> Iterator[tuple[np.ndarray, list[int] | Non
         else:
             try:
                 render = render_car(model, colour, pose, camera, background, lighting)
-                image, box = render.image_bgr, _box_or_none(render.box_xyxy_px)
+                image, box = render.image_bgr, render.box
             except ValueError:  # the car is not yet entirely in front of the camera
                 image, box = background, None
             if frame >= spec.stop_frame:
@@ -146,7 +143,7 @@ def render_frames(spec: SceneSpec) -> Iterator[tuple[np.ndarray, list[int] | Non
         yield np.clip(image + noise, 0, 255).astype(np.uint8), box
 
 
-def ground_truth(spec: SceneSpec, boxes: list[list[int] | None]) -> dict:
+def ground_truth(spec: SceneSpec, boxes: list[Box | None]) -> dict:
     """The scene's ground truth as a JSON-ready mapping."""
     camera = spec.camera.camera()
     model = model_by_id(spec.model_id)
@@ -199,7 +196,7 @@ def ground_truth(spec: SceneSpec, boxes: list[list[int] | None]) -> dict:
             "footprint_corners_px": camera.project(corners_mm).tolist(),
             "footprint_order": ["front_left", "front_right", "rear_right", "rear_left"],
         },
-        "boxes_xyxy_px": boxes,
+        "boxes_xyxy_px": [None if box is None else list(box.to_inclusive()) for box in boxes],
         "box_convention": "0-based inclusive x1 y1 x2 y2 of the pixels the car covers at least half; null when absent",
     }
 

@@ -14,10 +14,11 @@ import torch
 from torch.utils.data import DataLoader, WeightedRandomSampler
 
 from vehloc.data.compcars import CompCarsSample, CompCarsSet, read_compcars
+from vehloc.data.preprocess import Preprocessing
 from vehloc.data.specs import SpecsTable, read_specs_csv
 from vehloc.errors import DataError
 from vehloc.train.dataset import CompCarsCrops
-from vehloc.train.transforms import eval_transform, train_transform
+from vehloc.train.transforms import EvalTransform, TrainTransform
 
 
 def carve_validation(labels: Sequence[int], val_fraction: float, seed: int) -> tuple[list[int], list[int]]:
@@ -40,6 +41,9 @@ class CompCarsDataModule(L.LightningDataModule):
     """Train/val/test loaders of enlarged vehicle ROIs from a CompCars-format root.
 
     Validation uses `val_fraction` of train (stratified) when it is above 0, else the test split.
+    Validation and test images go through `eval_preprocessing`: the data config's ROI enlargement, resize and
+    input size until the model's own preprocessing is given with `use_preprocessing` (training does so; the
+    evaluation of a checkpoint gives the checkpoint's).
     """
 
     def __init__(
@@ -63,6 +67,10 @@ class CompCarsDataModule(L.LightningDataModule):
         self.root = Path(root)
         self.specs_path = Path(specs_csv) if specs_csv else self.root / "specs.csv"
         self.augment = dict(augment or {})
+        # the network's normalisation is unknown here and not part of `to_input`: identity until given
+        self.eval_preprocessing = Preprocessing(
+            input_size_px, eval_resize_px or input_size_px, roi_enlarge_fraction, (0.0, 0.0, 0.0), (1.0, 1.0, 1.0)
+        )
         self.train_set: CompCarsCrops | None = None
         self.val_set: CompCarsCrops | None = None
         self.test_set: CompCarsCrops | None = None
@@ -93,14 +101,18 @@ class CompCarsDataModule(L.LightningDataModule):
             "class_wheelbases_mm": [self.specs[m].wheelbase_mm for m in self.dataset.model_ids],
         }
 
+    def use_preprocessing(self, preprocessing: Preprocessing) -> None:
+        """Evaluate with a model's preprocessing (before `setup`)."""
+        if self.test_set is not None:
+            raise RuntimeError("use_preprocessing must come before setup")
+        self.eval_preprocessing = preprocessing
+
     def _crops(self, samples: Sequence[CompCarsSample], labels: Sequence[int], train: bool) -> CompCarsCrops:
-        hp = self.hparams
-        transform = (
-            train_transform(hp.input_size_px, **self.augment)
-            if train
-            else eval_transform(hp.input_size_px, hp.eval_resize_px)
-        )
-        return CompCarsCrops(samples, labels, transform, hp.roi_enlarge_fraction)
+        if train:
+            hp = self.hparams
+            return CompCarsCrops(samples, labels, TrainTransform(hp.input_size_px, **self.augment), hp.roi_enlarge_fraction)
+        preprocessing = self.eval_preprocessing
+        return CompCarsCrops(samples, labels, EvalTransform(preprocessing), preprocessing.roi_enlarge_fraction)
 
     def setup(self, stage: str | None = None) -> None:
         if self.test_set is not None:

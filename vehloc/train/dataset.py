@@ -4,26 +4,24 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 
-import cv2
+import numpy as np
 import torch
 from torch.utils.data import Dataset
 
 from vehloc.data.compcars import CompCarsSample
+from vehloc.data.preprocess import ImageInputError, enlarged_roi, read_bgr
 from vehloc.errors import DataError
-from vehloc.train.transforms import enlarged_roi
 
 
-def load_roi(sample: CompCarsSample, enlarge_fraction: float) -> torch.Tensor:
-    """The sample's labelled box, enlarged on each side, as a uint8 (3, H, W) RGB tensor."""
-    bgr = cv2.imread(str(sample.image_path), cv2.IMREAD_COLOR)
-    if bgr is None:
-        raise DataError(f"{sample.image_path}: not a readable image")
+def load_roi(sample: CompCarsSample, enlarge_fraction: float) -> np.ndarray:
+    """The sample's labelled box, enlarged on each side, as a BGR uint8 (H, W, 3) array."""
     try:
-        roi = enlarged_roi(bgr, sample.crop_box_xyxy_px(), enlarge_fraction)
+        image = read_bgr(sample.image_path)
+        return enlarged_roi(image, sample.box, enlarge_fraction)
+    except ImageInputError as err:
+        raise DataError(str(err)) from None
     except ValueError as err:
         raise DataError(f"{sample.label_path}: {err}") from None
-    rgb = cv2.cvtColor(roi, cv2.COLOR_BGR2RGB)
-    return torch.from_numpy(rgb).permute(2, 0, 1).contiguous()
 
 
 class CompCarsCrops(Dataset):
@@ -33,7 +31,7 @@ class CompCarsCrops(Dataset):
         self,
         samples: Sequence[CompCarsSample],
         labels: Sequence[int],
-        transform: Callable[[torch.Tensor], torch.Tensor],
+        transform: Callable[[np.ndarray], torch.Tensor],
         enlarge_fraction: float = 0.10,
     ) -> None:
         if len(samples) != len(labels):

@@ -10,22 +10,19 @@ from omegaconf import DictConfig, OmegaConf
 
 from vehloc.errors import VehlocError, exit_on_error
 from vehloc.train.instantiate import CONF_DIR, instantiate_callbacks, instantiate_loggers, instantiate_trainer
-from vehloc.train.module import check_classes, load_classifier, read_checkpoint
-
-
-PREPROCESSING_KEYS = ("input_size_px", "eval_resize_px", "roi_enlarge_fraction")
+from vehloc.train.module import check_classes, load_classifier, preprocessing_of, read_checkpoint
 
 
 def evaluate(cfg: DictConfig) -> tuple[dict[str, float], dict[str, Any]]:
     """Test the checkpoint `cfg.ckpt_path` on the test split of `cfg.data`, with the data's specs table.
 
-    The ROI enlargement, resize and input size are the checkpoint's own (those it was trained with),
-    whatever the data config says."""
+    The test images go through the checkpoint's own preprocessing (ROI enlargement, resize, input size:
+    those it was trained with), whatever the data config says."""
     if OmegaConf.is_missing(cfg, "ckpt_path") or not cfg.ckpt_path:
         raise VehlocError("ckpt_path=PATH is required: the checkpoint to evaluate")
     checkpoint = read_checkpoint(cfg.ckpt_path)
-    preprocessing = {key: checkpoint["hyper_parameters"][key] for key in PREPROCESSING_KEYS}
-    datamodule = hydra.utils.instantiate(cfg.data, **preprocessing, _convert_="all")
+    datamodule = hydra.utils.instantiate(cfg.data, _convert_="all")
+    datamodule.use_preprocessing(preprocessing_of(checkpoint, cfg.ckpt_path))
     classes = datamodule.class_info()
     check_classes(checkpoint, classes["class_model_ids"], cfg.ckpt_path)
     model = load_classifier(checkpoint, **{k: v for k, v in classes.items() if k != "class_model_ids"})

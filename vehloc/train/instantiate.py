@@ -19,7 +19,7 @@ from omegaconf import DictConfig, OmegaConf, open_dict
 from vehloc.errors import VehlocError
 from vehloc.hardware import cpu_info
 from vehloc.train.datamodule import CompCarsDataModule
-from vehloc.train.module import VehicleClassifier
+from vehloc.train.module import LitVehicleClassifier
 from vehloc.train.precision import PrecisionChoice, resolve_precision
 
 CONF_DIR = Path(__file__).resolve().parents[2] / "conf"
@@ -54,12 +54,14 @@ def instantiate_loggers(cfg: DictConfig | None) -> list[Logger]:
     return _instantiate_group(cfg, "logger")
 
 
-def instantiate_data_and_model(cfg: DictConfig) -> tuple[CompCarsDataModule, VehicleClassifier]:
-    """The datamodule (data set and specs validated) and a model built for its classes."""
+def instantiate_data_and_model(cfg: DictConfig) -> tuple[CompCarsDataModule, LitVehicleClassifier]:
+    """The datamodule (data set and specs validated) and a model built for its classes; validation and test
+    images go through the model's preprocessing."""
     if OmegaConf.is_missing(cfg.data, "root") or cfg.data.root is None:
         raise VehlocError("data.root=PATH is required: a CompCars-format data set")
     datamodule: CompCarsDataModule = hydra.utils.instantiate(cfg.data, _convert_="all")
-    model: VehicleClassifier = hydra.utils.instantiate(cfg.model, **datamodule.class_info(), _convert_="all")
+    model: LitVehicleClassifier = hydra.utils.instantiate(cfg.model, **datamodule.class_info(), _convert_="all")
+    datamodule.use_preprocessing(model.preprocessing)
     return datamodule, model
 
 

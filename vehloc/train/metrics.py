@@ -8,15 +8,9 @@ import torch
 from torchmetrics import Metric, MetricCollection
 from torchmetrics.classification import MulticlassAccuracy
 
+from vehloc.data.dimension_error import expected_dims_mm
+
 DIMENSION_RULES = ("top1", "expected")
-
-
-def expected_dims_from_probs(probs: torch.Tensor, class_dims_mm: torch.Tensor, top_k: int) -> torch.Tensor:
-    """Probability-weighted (L, W, H) over each row's top-k classes, renormalised: (N, 3) mm."""
-    k = min(top_k, probs.shape[1])
-    top_probs, top_idx = probs.topk(k, dim=1)
-    weights = top_probs / top_probs.sum(dim=1, keepdim=True)
-    return (weights.unsqueeze(-1) * class_dims_mm[top_idx]).sum(dim=1)
 
 
 class DimensionError(Metric):
@@ -44,7 +38,9 @@ class DimensionError(Metric):
         if self.rule == "top1":
             pred_mm = dims[logits.argmax(dim=1)]
         else:
-            pred_mm = expected_dims_from_probs(logits.double().softmax(dim=1), dims, self.top_k)
+            probs = logits.detach().double().softmax(dim=1).cpu().numpy()
+            expected = expected_dims_mm(probs, self.class_dims_mm.cpu().numpy(), self.top_k)
+            pred_mm = torch.from_numpy(expected).to(dims)
         true_mm = dims[target]
         self.rel_pct_sum += (100.0 * (pred_mm - true_mm).abs() / true_mm).sum(dim=0)
         self.count += target.numel()

@@ -10,17 +10,23 @@ import torch
 import torch.nn.functional as F
 from torchmetrics import MaxMetric, MeanMetric
 
+from vehloc.data.preprocess import Preprocessing
 from vehloc.errors import VehlocError
 from vehloc.train.backbones import build_backbone
 from vehloc.train.metrics import split_metrics
 from vehloc.train.schedules import build_optimizer, build_schedule, param_groups
 
 
-class VehicleClassifier(L.LightningModule):
-    """Fine-grained vehicle-model classifier; input RGB float in [0, 1], output class logits.
+PREPROCESSING_KEY = "preprocessing"
+
+
+class LitVehicleClassifier(L.LightningModule):
+    """The LightningModule of the fine-grained vehicle-model classifier; input RGB float in [0, 1], output class
+    logits.
 
     Hyperparameters are plain values (no objects), so checkpoints load with `weights_only=True` and carry
-    the class table (model ids, names, dimensions in mm) with them.
+    the class table (model ids, names, dimensions in mm) with them, and the preprocessing under the
+    checkpoint key `preprocessing`.
     """
 
     def __init__(
@@ -53,6 +59,7 @@ class VehicleClassifier(L.LightningModule):
         built = build_backbone(num_classes=num_classes, **backbone)
         self.net = built.net
         self.head_prefixes = tuple(f"net.{name}" for name in built.head_names)
+        self.normalisation = (tuple(built.mean), tuple(built.std))
         self.register_buffer("mean", torch.tensor(built.mean).view(1, 3, 1, 1), persistent=False)
         self.register_buffer("std", torch.tensor(built.std).view(1, 3, 1, 1), persistent=False)
         if channels_last:
@@ -64,6 +71,16 @@ class VehicleClassifier(L.LightningModule):
         self.val_metrics = split_metrics(num_classes, class_dims_mm, "val/", expected_top_k)
         self.test_metrics = split_metrics(num_classes, class_dims_mm, "test/", expected_top_k)
         self.val_acc_best = MaxMetric()
+
+    @property
+    def preprocessing(self) -> Preprocessing:
+        """The one preprocessing of this classifier's input (ROI, resize, crop; the normalisation inside)."""
+        hp = self.hparams
+        return Preprocessing(int(hp.input_size_px), int(hp.eval_resize_px), float(hp.roi_enlarge_fraction),
+                             *self.normalisation)
+
+    def on_save_checkpoint(self, checkpoint: dict[str, Any]) -> None:
+        checkpoint[PREPROCESSING_KEY] = self.preprocessing.as_dict()
 
     @property
     def num_classes(self) -> int:
@@ -125,7 +142,9 @@ class VehicleClassifier(L.LightningModule):
         self.log("val/acc_best", self.val_acc_best.compute(), prog_bar=True)
 
     def test_step(self, batch: tuple[torch.Tensor, ...], batch_idx: int) -> dict[str, torch.Tensor]:
-        loss, logits, targets = self.model_step(batch)
+        # Table 1 in full precision, as the exported model computes it, whatever precision trained the weights
+        with torch.autocast(self.device.type, enabled=False):
+            loss, logits, targets = self.model_step(batch)
         self.test_loss(loss)
         self.test_metrics.update(logits, targets)
         self.log("test/loss", self.test_loss, on_step=False, on_epoch=True)
@@ -157,7 +176,7 @@ def display_name(make: str, model: str) -> str:
 
 
 def read_checkpoint(path: str | Path) -> dict[str, Any]:
-    """A Lightning checkpoint of VehicleClassifier, loaded with `weights_only=True`."""
+    """A Lightning checkpoint of LitVehicleClassifier, loaded with `weights_only=True`."""
     path = Path(path)
     if not path.is_file():
         raise VehlocError(f"ckpt_path {path}: no such checkpoint file")
@@ -170,12 +189,22 @@ def read_checkpoint(path: str | Path) -> dict[str, Any]:
     return checkpoint
 
 
-def load_classifier(checkpoint: dict[str, Any], **overrides: Any) -> VehicleClassifier:
+def preprocessing_of(checkpoint: dict[str, Any], path: str | Path) -> Preprocessing:
+    """The preprocessing a checkpoint's classifier was trained with."""
+    if PREPROCESSING_KEY not in checkpoint:
+        raise VehlocError(f"{path}: the checkpoint has no preprocessing description (written by an older vehloc)")
+    try:
+        return Preprocessing.from_dict(checkpoint[PREPROCESSING_KEY])
+    except (TypeError, ValueError) as err:
+        raise VehlocError(f"{path}: bad preprocessing description ({err})") from None
+
+
+def load_classifier(checkpoint: dict[str, Any], **overrides: Any) -> LitVehicleClassifier:
     """Rebuild the classifier of a checkpoint (backbone not re-initialised from pretrained weights; hparams
     in `overrides` replaced) and load its weights."""
     hparams = {**checkpoint["hyper_parameters"], **overrides}
     hparams["backbone"] = {**hparams["backbone"], "pretrained": "none"}
-    model = VehicleClassifier(**hparams)
+    model = LitVehicleClassifier(**hparams)
     model.load_state_dict(checkpoint["state_dict"])
     return model
 

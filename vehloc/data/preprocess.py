@@ -1,0 +1,103 @@
+"""The one preprocessing of the classifier, from an image file and a vehicle box to the network's input:
+the box enlarged on each side (the paper's 10 %), the ROI resized to a square, centre-cropped, RGB
+scaled to [0, 1]. The network normalises with `mean` and `std` itself (inside the Lightning module and
+the ONNX graph). Training augments the same ROI its own way; evaluation, the export's parity check and
+the onnxruntime classifier all run `Preprocessing.to_input`, NumPy and OpenCV only.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from vehloc.data.boxes import Box
+from vehloc.errors import VehlocError
+
+COLOUR_ORDER = "RGB"
+INPUT_RANGE = (0.0, 1.0)
+
+
+class ImageInputError(VehlocError):
+    """An image is missing, cannot be decoded, or is not a usable colour image."""
+
+
+def read_bgr(path: str | Path) -> np.ndarray:
+    """An image file as a BGR uint8 (H, W, 3) array (alpha dropped, grey expanded); ImageInputError naming the
+    file when it is missing or not a decodable image."""
+    path = Path(path)
+    if not path.is_file():
+        raise ImageInputError(f"{path}: image does not exist")
+    image = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    if image is None:
+        raise ImageInputError(f"{path}: not a readable image")
+    return image
+
+
+def enlarged_roi(image: np.ndarray, box: Box, enlarge_fraction: float) -> np.ndarray:
+    """The part of `image` under `box` grown by `enlarge_fraction` of its size on each side (clipped to the
+    image); ValueError when the box lies outside the image."""
+    height_px, width_px = image.shape[:2]
+    return box.enlarged(enlarge_fraction, width_px, height_px).crop(image)
+
+
+@dataclass(frozen=True)
+class Preprocessing:
+    """How a vehicle ROI becomes the classifier's input (stored in checkpoints and ONNX metadata)."""
+
+    input_size_px: int
+    resize_px: int
+    roi_enlarge_fraction: float
+    mean: tuple[float, float, float]
+    std: tuple[float, float, float]
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.input_size_px, int) and self.input_size_px >= 8):
+            raise ValueError(f"input_size_px must be an integer >= 8, got {self.input_size_px!r}")
+        if not (isinstance(self.resize_px, int) and self.resize_px >= self.input_size_px):
+            raise ValueError(f"resize_px must be an integer >= input_size_px ({self.input_size_px}), got {self.resize_px!r}")
+        if not 0.0 <= self.roi_enlarge_fraction <= 1.0:
+            raise ValueError(f"roi_enlarge_fraction must lie in [0, 1], got {self.roi_enlarge_fraction!r}")
+        if len(self.mean) != 3 or len(self.std) != 3 or min(self.std) <= 0:
+            raise ValueError(f"mean and std need 3 values each, std positive; got {self.mean!r}, {self.std!r}")
+        object.__setattr__(self, "mean", tuple(float(v) for v in self.mean))
+        object.__setattr__(self, "std", tuple(float(v) for v in self.std))
+
+    @property
+    def colour_order(self) -> str:
+        return COLOUR_ORDER
+
+    @property
+    def input_range(self) -> tuple[float, float]:
+        return INPUT_RANGE
+
+    def roi(self, image_bgr: np.ndarray, box: Box) -> np.ndarray:
+        """The vehicle ROI: `box` grown by `roi_enlarge_fraction` on each side, clipped to the image."""
+        return enlarged_roi(image_bgr, box, self.roi_enlarge_fraction)
+
+    def to_input(self, roi_bgr: np.ndarray) -> np.ndarray:
+        """Resize to a `resize_px` square (area averaging when shrinking, bilinear when enlarging), centre-crop
+        `input_size_px`, RGB float32 in [0, 1], (3, S, S)."""
+        height_px, width_px = roi_bgr.shape[:2]
+        shrinking = self.resize_px < min(height_px, width_px)
+        square = cv2.resize(roi_bgr, (self.resize_px, self.resize_px),
+                            interpolation=cv2.INTER_AREA if shrinking else cv2.INTER_LINEAR)
+        offset = int(round((self.resize_px - self.input_size_px) / 2.0))
+        crop = square[offset:offset + self.input_size_px, offset:offset + self.input_size_px]
+        rgb = cv2.cvtColor(crop, cv2.COLOR_BGR2RGB)
+        return np.ascontiguousarray(rgb.transpose(2, 0, 1), dtype=np.float32) / 255.0
+
+    def as_dict(self) -> dict[str, object]:
+        return {**asdict(self), "mean": list(self.mean), "std": list(self.std)}
+
+    @classmethod
+    def from_dict(cls, values: dict[str, object]) -> Preprocessing:
+        """From `as_dict`'s mapping; ValueError naming a missing or bad entry."""
+        fields = ("input_size_px", "resize_px", "roi_enlarge_fraction", "mean", "std")
+        missing = [name for name in fields if name not in values]
+        if missing:
+            raise ValueError(f"preprocessing lacks {', '.join(missing)}")
+        return cls(int(values["input_size_px"]), int(values["resize_px"]), float(values["roi_enlarge_fraction"]),
+                   tuple(values["mean"]), tuple(values["std"]))
