@@ -17,6 +17,7 @@ import pandas as pd
 from hydra import compose, initialize_config_dir
 from omegaconf import OmegaConf
 
+from vehloc.config import config_dir
 from vehloc.geometry.calibration import calibrate
 from vehloc.geometry.markers import detect_markers
 from vehloc.geometry.roi import StoppedVehicleTracker, VehicleRoiExtractor
@@ -25,9 +26,8 @@ from vehloc.synth.render import render_car
 from vehloc.synth.road import render_road
 from vehloc.synth.scene import SceneSpec, render_frames
 from vehloc.synth.scene_site import scene_site
-from vehloc.train.report import markdown_table
+from vehloc.tables import markdown_table
 
-CONF_DIR = Path(__file__).resolve().parents[1] / "conf"
 
 
 def _time_ms(function: Callable[[], object], repeats: int) -> list[float]:
@@ -46,7 +46,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=20)
     args = parser.parse_args()
 
-    with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
+    with initialize_config_dir(config_dir=str(config_dir()), version_base="1.3"):
         cfg = compose(config_name="scene", overrides=[f"scene={args.scene}", "out=unused"])
     spec = SceneSpec.from_dict(OmegaConf.to_container(cfg.scene, resolve=True))
     camera = spec.camera.camera()

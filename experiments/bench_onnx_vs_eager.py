@@ -21,7 +21,7 @@ import torch
 
 from vehloc.infer.export import DeployedClassifier
 from vehloc.train.module import LitVehicleClassifier, load_classifier, read_checkpoint
-from vehloc.train.report import markdown_table
+from vehloc.tables import markdown_table
 
 
 def paper_model(num_classes: int, size_px: int) -> LitVehicleClassifier:

@@ -28,7 +28,7 @@ from vehloc.hardware import cpu_info
 from vehloc.train.instantiate import compose_config
 from vehloc.train.module import LitVehicleClassifier
 from vehloc.train.precision import resolve_precision
-from vehloc.train.report import markdown_table
+from vehloc.tables import markdown_table
 from vehloc.train.schedules import build_optimizer, param_groups
 
 DEMO_CLASSES = 12

@@ -26,7 +26,7 @@ from torch.utils.data import DataLoader, Dataset
 
 from vehloc.train.instantiate import compose_config, instantiate_data_and_model
 from vehloc.train.module import LitVehicleClassifier
-from vehloc.train.report import markdown_table
+from vehloc.tables import markdown_table
 from vehloc.train.schedules import build_optimizer, param_groups
 
 

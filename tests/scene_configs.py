@@ -8,9 +8,9 @@ from pathlib import Path
 from hydra import compose, initialize_config_dir
 from omegaconf import OmegaConf
 
+from vehloc.config import config_dir
 from vehloc.synth.scene import SceneSpec
 
-CONF_DIR = Path(__file__).resolve().parents[1] / "conf"
 TABLE2_SCENES = (
     "table2_middle_0", "table2_middle_30", "table2_middle_minus30",
     "table2_close_0", "table2_close_30", "table2_close_minus30",
@@ -18,7 +18,7 @@ TABLE2_SCENES = (
 
 
 def scene_spec(name: str, **overrides: object) -> SceneSpec:
-    with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
+    with initialize_config_dir(config_dir=str(config_dir()), version_base="1.3"):
         cfg = compose(config_name="scene", overrides=[f"scene={name}", "out=unused"])
     spec = SceneSpec.from_dict(OmegaConf.to_container(cfg.scene, resolve=True))
     return dataclasses.replace(spec, **overrides)

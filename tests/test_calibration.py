@@ -9,11 +9,12 @@ import pytest
 
 from vehloc.geometry.calibration import (
     CalibrationError,
+    CalibrationParams,
     calibrate,
     camera_from_homography,
     refine_on_site,
 )
-from vehloc.geometry.edges import EdgeSearchParams, stripe_edges
+from vehloc.geometry.edges import stripe_edges
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.markers import detect_markers
 from vehloc.geometry.site import Site, SiteError, SiteMarker, homography_from_points, read_site, write_site
@@ -175,7 +176,7 @@ def test_stripe_edges_are_sub_pixel() -> None:
     edge = next(m for m in LAYOUT.markers() if m.marker_id == "edge_right")
     start, end = edge.corners_mm[:2].mean(0), edge.corners_mm[2:].mean(0)
     rough = _site_with_clicked_guess(camera, 3.0, seed=4).initial_transform()
-    edges = stripe_edges(grey, rough, start, end, 150.0, EdgeSearchParams())
+    edges = stripe_edges(grey, rough, start, end, 150.0, CalibrationParams.from_config().edge_search)
     assert len(edges) == 2
     truth_inverse = np.linalg.inv(_true_homography(camera))
     for world_line, points in edges:

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from vehloc.data.cli import main
+from vehloc.synth.cli import main
 
 
 def test_check_real_set_is_clean(stanford_root: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -24,7 +24,7 @@ def test_check_broken_copy_names_both_files(stanford_copy: Path) -> None:
     deleted.unlink()
     truncated.write_text(truncated.read_text()[:5])
     run = subprocess.run(
-        [sys.executable, "-m", "vehloc.data.cli", "check", str(stanford_copy)],
+        [sys.executable, "-m", "vehloc.synth.cli", "check", str(stanford_copy)],
         capture_output=True, text=True,
     )
     assert run.returncode == 1

@@ -13,6 +13,7 @@ import pytest
 from scene_configs import scene_spec
 
 from vehloc.geometry.site import write_site
+from vehloc.data.preprocess import ImageInputError
 from vehloc.geometry.video import MediaError, iter_frames, median_background, read_still
 from vehloc.synth.road import render_road
 from vehloc.synth.scene_site import scene_site
@@ -65,10 +66,10 @@ def test_calibrate_bad_input_is_one_line_and_exit_1(
 
 
 def test_media_errors(tmp_path: Path) -> None:
-    with pytest.raises(MediaError, match="image does not exist"):
+    with pytest.raises(ImageInputError, match="image does not exist"):
         read_still(tmp_path / "none.png")
     (tmp_path / "bad.png").write_bytes(b"not an image")
-    with pytest.raises(MediaError, match="not a readable image"):
+    with pytest.raises(ImageInputError, match="not a readable image"):
         read_still(tmp_path / "bad.png")
     (tmp_path / "bad.avi").write_bytes(b"not a video")
     with pytest.raises(MediaError, match="not a readable video"):

@@ -8,8 +8,8 @@ import hydra
 import lightning as L
 import pytest
 
+from vehloc.config import config_dir
 from vehloc.train.instantiate import (
-    CONF_DIR,
     compose_config,
     instantiate_callbacks,
     instantiate_data_and_model,
@@ -18,7 +18,7 @@ from vehloc.train.instantiate import (
 )
 
 PROJECT_ROOT = Path(__file__).resolve().parents[1]
-EXPERIMENTS = sorted(p.stem for p in (CONF_DIR / "experiment").glob("*.yaml"))
+EXPERIMENTS = sorted(p.stem for p in (config_dir() / "experiment").glob("*.yaml"))
 
 
 def test_the_issue_s_experiments_exist():

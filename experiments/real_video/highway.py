@@ -16,21 +16,20 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pandas as pd
-from hydra import compose, initialize_config_dir
 
-from vehloc.geometry.calibrate_cli import run_calibration
-from vehloc.geometry.edges import apply_homography
+from vehloc.geometry.calibration import CalibrationParams
 from vehloc.geometry.roi import RoiParams, VehicleRoiExtractor
-from vehloc.geometry.video import iter_frames
+from vehloc.geometry.site import read_site
+from vehloc.geometry.site_calibration import calibrate_site, write_calibration_files
+from vehloc.geometry.video import iter_frames, median_background
 
 PROJECT = Path(__file__).resolve().parents[2]
 VIDEO = PROJECT.parent / "shared" / "data" / "traffic" / "highway_320x240.avi"
 SITE = Path(__file__).resolve().parent / "highway_site.yaml"
-CALIBRATION_OVERRIDES = [
-    f"site={SITE}", f"image={VIDEO}", "background_frames=60", "mode=guess", "grid_step_mm=2000",
-    "calibration.pinhole_model=true", "calibration.edge_search_px=3", "calibration.edge_min_contrast=25",
-    "calibration.refine_rounds=5",
-]
+# the calibration of the README's command line: the median of 60 frames, the clicked guess refined on the
+# marker edges with a pinhole camera (vehloc-calibrate mode=guess background_frames=60 ...)
+BACKGROUND_FRAMES = 60
+CALIBRATION_OVERRIDES = {"pinhole_model": True, "refine_rounds": 5, "edge_search": {"search_px": 3.0, "min_contrast": 25.0}}
 # Points on the face of the left curb, read off the median background by eye (px).
 LEFT_CURB_PX = np.array([[62.0, 160.0], [40.0, 178.0], [22.0, 190.0]])
 SHOWN_FRAMES = (300, 500, 800, 1200, 1500, 1650)
@@ -38,7 +37,7 @@ SHOWN_FRAMES = (300, 500, 800, 1200, 1500, 1650)
 
 def run_roi(out_dir: Path) -> tuple[pd.DataFrame, int]:
     """Boxes of every frame and the frame count; a picture of the frames in SHOWN_FRAMES with their boxes."""
-    extractor = VehicleRoiExtractor(RoiParams(close_kernel_px=5))
+    extractor = VehicleRoiExtractor(RoiParams.from_config(close_kernel_px=5))
     rows, shown = [], []
     for index, frame in enumerate(iter_frames(VIDEO)):
         boxes = extractor.apply(frame)
@@ -62,14 +61,13 @@ def main() -> None:
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
 
-    with initialize_config_dir(config_dir=str(PROJECT / "conf"), version_base="1.3"):
-        cfg = compose(config_name="calibrate", overrides=CALIBRATION_OVERRIDES)
-    summary = run_calibration(cfg, args.out)
-    homography = np.array(summary["homography_world_mm_to_image_px"])
-    to_road = np.linalg.inv(homography)
-    curb_mm = apply_homography(to_road, LEFT_CURB_PX)
-    dash_axis_px = apply_homography(homography, np.array([[0.0, y] for y in (0.0, 12192.0, 24384.0)]))
-    yellow_px = apply_homography(homography, np.array([[3658.0, y] for y in (0.0, 12192.0, 24384.0)]))
+    background = median_background(VIDEO, BACKGROUND_FRAMES)
+    result = calibrate_site(read_site(SITE), background, "guess", params=CalibrationParams.from_config(**CALIBRATION_OVERRIDES))
+    summary = write_calibration_files(result, background, args.out, 2000, {"site": str(SITE), "image": str(VIDEO)})
+    road_to_image = result.calibration.transform
+    curb_mm = road_to_image.inverse(LEFT_CURB_PX)
+    dash_axis_px = road_to_image(np.array([[0.0, y] for y in (0.0, 12192.0, 24384.0)]))
+    yellow_px = road_to_image(np.array([[3658.0, y] for y in (0.0, 12192.0, 24384.0)]))
     lane_px = np.linalg.norm(yellow_px - dash_axis_px, axis=1)
 
     boxes, frames_total = run_roi(args.out)

@@ -15,6 +15,7 @@ import cv2
 import numpy as np
 from scipy.spatial import cKDTree
 
+from vehloc.config import params_from_config
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.camera_fit import FreeHomography, PinholeHomography
 from vehloc.geometry.edges import (
@@ -43,21 +44,21 @@ class CalibrationError(SiteError):
 class CalibrationParams:
     """Gates and thresholds of the matching loop, in image pixels."""
 
-    initial_gate_px: float = 40.0
-    final_gate_px: float = 6.0
-    ransac_threshold_px: float = 2.0
-    max_iterations: int = 10
-    min_matches: int = 4
-    refine_on_edges: bool = True
-    edge_search_px: float = 4.0
-    edge_min_contrast: float = 20.0
-    refine_rounds: int = 4
-    guess_sigma_px: float = 5.0
-    pinhole_model: bool = False
+    initial_gate_px: float
+    final_gate_px: float
+    ransac_threshold_px: float
+    max_iterations: int
+    min_matches: int
+    refine_on_edges: bool
+    refine_rounds: int
+    guess_sigma_px: float
+    pinhole_model: bool
+    edge_search: EdgeSearchParams
 
-    @property
-    def edge_search(self) -> EdgeSearchParams:
-        return EdgeSearchParams(search_px=self.edge_search_px, min_contrast=self.edge_min_contrast)
+    @classmethod
+    def from_config(cls, **overrides: object) -> CalibrationParams:
+        """The settings of `conf/calibration/default.yaml`, with `overrides`."""
+        return params_from_config(cls, "calibration/default.yaml", overrides)
 
 
 @dataclass(frozen=True)
@@ -224,7 +225,7 @@ def refine_on_site(
     the median edge distance (px) of the last round. With `pinhole_model`, H stays the homography
     of a pinhole camera with square pixels and a centred principal point (7 parameters), which
     keeps a view with few markers physically consistent."""
-    params = params or CalibrationParams()
+    params = params or CalibrationParams.from_config()
     grey = cv2.cvtColor(image_bgr, cv2.COLOR_BGR2GRAY).astype(np.float32)
     anchors = None
     if site.guess_points:
@@ -273,7 +274,7 @@ def calibrate(
     """Estimate the road homography from detected markers and a site description.
 
     With the image, the site's solid stripes (edge lines) are searched for and join the refinement."""
-    params = params or CalibrationParams()
+    params = params or CalibrationParams.from_config()
     surveyed = [m for m in site.markers if len(m.corners_mm) == 4]
     if not surveyed:
         raise CalibrationError(f"site {site.name!r} has no marker with four surveyed corners")
@@ -308,7 +309,7 @@ def calibrate_from_guess(
 
     For views whose markers are too small or blurred to be found as blobs. The clicked points serve
     as the matched corners of the result, so its reprojection error is theirs."""
-    params = params or CalibrationParams()
+    params = params or CalibrationParams.from_config()
     if not site.guess_points:
         raise CalibrationError(f"site {site.name!r}: calibrating from the guess needs 'initial_guess.points'")
     road_to_image, edge_px = refine_on_site(image_bgr, site, site.initial_transform(), params)

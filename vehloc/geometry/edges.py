@@ -23,13 +23,14 @@ EdgeObservation = tuple[np.ndarray, np.ndarray]
 
 @dataclass(frozen=True)
 class EdgeSearchParams:
-    """How far and how finely edges are searched around their predicted image."""
+    """How far and how finely edges are searched around their predicted image (set in
+    `conf/calibration/default.yaml`, under `edge_search`)."""
 
-    search_px: float = 4.0
-    min_contrast: float = 20.0
-    samples_per_stripe: int = 400
-    px_per_sample: float = 2.0
-    border_px: int = 6
+    search_px: float
+    min_contrast: float
+    samples_per_stripe: int
+    px_per_sample: float
+    border_px: int
 
 
 def world_line(start_mm: np.ndarray, end_mm: np.ndarray) -> np.ndarray:

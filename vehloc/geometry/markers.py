@@ -14,24 +14,31 @@ import cv2
 import numpy as np
 from scipy.ndimage import map_coordinates
 
+from vehloc.config import params_from_config
+
 
 @dataclass(frozen=True)
 class MarkerDetectionParams:
     """Thresholds of the marker detector (HLS in OpenCV's 8-bit ranges: H 0-180, L and S 0-255)."""
 
-    white_min_contrast: int = 40
-    white_max_saturation: int = 110
-    tophat_kernel_fraction: float = 0.03
-    close_px: int = 0
-    yellow_hue_range: tuple[int, int] = (12, 38)
-    yellow_min_saturation: int = 80
-    yellow_min_lightness: int = 70
-    min_area_px: int = 12
-    min_side_px: float = 2.0
-    border_margin_px: int = 2
-    profile_half_length_px: float = 3.0
-    profile_samples_per_side: int = 24
-    min_fitted_side_px: float = 8.0
+    white_min_contrast: int
+    white_max_saturation: int
+    tophat_kernel_fraction: float
+    close_px: int
+    yellow_hue_range: tuple[int, int]
+    yellow_min_saturation: int
+    yellow_min_lightness: int
+    min_area_px: int
+    min_side_px: float
+    border_margin_px: int
+    profile_half_length_px: float
+    profile_samples_per_side: int
+    min_fitted_side_px: float
+
+    @classmethod
+    def from_config(cls, **overrides: object) -> MarkerDetectionParams:
+        """The settings of `conf/detection/default.yaml`, with `overrides`."""
+        return params_from_config(cls, "detection/default.yaml", overrides)
 
 
 @dataclass(frozen=True)
@@ -174,7 +181,7 @@ def detect_markers(
     region_mask: np.ndarray | None = None,
 ) -> list[DetectedMarker]:
     """Detect painted markers with four visible corners; blobs touching the image border are skipped."""
-    params = params or MarkerDetectionParams()
+    params = params or MarkerDetectionParams.from_config()
     if image_bgr.ndim != 3 or image_bgr.shape[2] != 3:
         raise ValueError(f"expected a BGR image of shape (H, W, 3), got {image_bgr.shape}")
     grey = cv2.cvtColor(image_bgr, cv2.COLOR_BGR2GRAY).astype(np.float32)

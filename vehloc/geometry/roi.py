@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from vehloc.config import params_from_config
 from vehloc.data.boxes import Box
 
 MOG2_SHADOW_VALUE = 127
@@ -24,18 +25,23 @@ MOG2_FOREGROUND_VALUE = 255
 class RoiParams:
     """Background model and blob filtering."""
 
-    history_frames: int = 150
-    learning_rate_after_history: float = 0.002
-    mixtures: int = 3
-    var_threshold: float = 16.0
-    detect_shadows: bool = True
-    shadow_threshold: float = 0.3
-    shadow_texture_window_px: int = 7
-    shadow_min_correlation: float = 0.5
-    shadow_min_texture: float = 4.0
-    open_kernel_px: int = 3
-    close_kernel_px: int = 9
-    min_area_fraction: float = 0.002
+    history_frames: int
+    learning_rate_after_history: float
+    mixtures: int
+    var_threshold: float
+    detect_shadows: bool
+    shadow_threshold: float
+    shadow_texture_window_px: int
+    shadow_min_correlation: float
+    shadow_min_texture: float
+    open_kernel_px: int
+    close_kernel_px: int
+    min_area_fraction: float
+
+    @classmethod
+    def from_config(cls, **overrides: object) -> RoiParams:
+        """The settings of `conf/roi/default.yaml`, with `overrides`."""
+        return params_from_config(cls, "roi/default.yaml", overrides)
 
 
 def local_correlation(image: np.ndarray, reference: np.ndarray, window_px: int) -> tuple[np.ndarray, np.ndarray]:
@@ -97,7 +103,7 @@ class VehicleRoiExtractor:
     """Feeds frames to MOG2 and returns the vehicle boxes of each frame once the history is learnt."""
 
     def __init__(self, params: RoiParams | None = None) -> None:
-        self.params = params or RoiParams()
+        self.params = params or RoiParams.from_config()
         self.subtractor = cv2.createBackgroundSubtractorMOG2(
             history=self.params.history_frames,
             varThreshold=self.params.var_threshold,
@@ -144,10 +150,15 @@ class Track:
 class TrackerParams:
     """Association and stop detection."""
 
-    min_iou: float = 0.3
-    stop_frames: int = 10
-    stop_tolerance_fraction: float = 0.02
-    max_missed_frames: int = 5
+    min_iou: float
+    stop_frames: int
+    stop_tolerance_fraction: float
+    max_missed_frames: int
+
+    @classmethod
+    def from_config(cls, **overrides: object) -> TrackerParams:
+        """The settings of `conf/tracker/default.yaml`, with `overrides`."""
+        return params_from_config(cls, "tracker/default.yaml", overrides)
 
 
 class StoppedVehicleTracker:
@@ -155,7 +166,7 @@ class StoppedVehicleTracker:
     fraction of the box diagonal (blob edges flicker by a few pixels even when the car stands)."""
 
     def __init__(self, params: TrackerParams | None = None) -> None:
-        self.params = params or TrackerParams()
+        self.params = params or TrackerParams.from_config()
         self.tracks: list[Track] = []
         self._next_id = 1
 

@@ -12,13 +12,13 @@ os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")  # FFmpeg quiet: bad files
 import cv2  # noqa: E402 (after the FFmpeg log level, which is read when its backend loads)
 import numpy as np  # noqa: E402
 
-from vehloc.errors import VehlocError
+from vehloc.data.preprocess import ImageInputError, read_bgr
 
 VIDEO_SUFFIXES = {".avi", ".mp4", ".mkv", ".mov", ".m4v", ".mpg", ".mpeg", ".webm"}
 
 
-class MediaError(VehlocError):
-    """A video or image cannot be read."""
+class MediaError(ImageInputError):
+    """A video cannot be read."""
 
 
 @contextmanager
@@ -49,22 +49,12 @@ def iter_frames(path: Path | str) -> Iterator[np.ndarray]:
         capture.release()
 
 
-def read_image(path: Path | str) -> np.ndarray:
-    """Read a colour image; MediaError naming the file if it is missing or not an image."""
-    path = Path(path)
-    if not path.is_file():
-        raise MediaError(f"{path}: image does not exist")
-    image = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    if image is None:
-        raise MediaError(f"{path}: not a readable image")
-    return image
-
-
 def read_still(path: Path | str, frame_index: int = 0) -> np.ndarray:
-    """An image file, or one frame of a video file."""
+    """An image file, or one frame of a video file; ImageInputError (MediaError for a video) naming the file
+    when it cannot be read."""
     path = Path(path)
     if path.suffix.lower() not in VIDEO_SUFFIXES:
-        return read_image(path)
+        return read_bgr(path)
     for index, frame in enumerate(iter_frames(path)):
         if index == frame_index:
             return frame

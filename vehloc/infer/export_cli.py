@@ -8,9 +8,9 @@ import hydra
 from omegaconf import DictConfig, OmegaConf
 
 from vehloc.data.compcars import read_compcars
+from vehloc.config import config_dir
 from vehloc.errors import VehlocError, exit_on_error
 from vehloc.infer.export import export_checkpoint
-from vehloc.train.instantiate import CONF_DIR
 from vehloc.train.module import read_checkpoint
 
 
@@ -37,7 +37,7 @@ def _run(cfg: DictConfig) -> None:
     )
 
 
-@hydra.main(version_base="1.3", config_path=str(CONF_DIR), config_name="export")
+@hydra.main(version_base="1.3", config_path=str(config_dir()), config_name="export")
 def main(cfg: DictConfig) -> None:
     _run(cfg)
 

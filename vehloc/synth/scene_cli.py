@@ -7,15 +7,14 @@ from pathlib import Path
 import hydra
 from omegaconf import DictConfig, OmegaConf
 
+from vehloc.config import config_dir
 from vehloc.errors import exit_on_error
 from vehloc.geometry.site import write_site
 from vehloc.synth.scene import SceneSpec, write_scene
 from vehloc.synth.scene_site import scene_site
 
-CONF_DIR = str(Path(__file__).resolve().parents[2] / "conf")
 
-
-@hydra.main(version_base="1.3", config_path=CONF_DIR, config_name="scene")
+@hydra.main(version_base="1.3", config_path=str(config_dir()), config_name="scene")
 @exit_on_error("vehloc-scene")
 def main(cfg: DictConfig) -> None:
     spec = SceneSpec.from_dict(OmegaConf.to_container(cfg.scene, resolve=True))

@@ -8,8 +8,9 @@ from typing import Any
 import hydra
 from omegaconf import DictConfig, OmegaConf
 
+from vehloc.config import config_dir
 from vehloc.errors import VehlocError, exit_on_error
-from vehloc.train.instantiate import CONF_DIR, instantiate_callbacks, instantiate_loggers, instantiate_trainer
+from vehloc.train.instantiate import instantiate_callbacks, instantiate_loggers, instantiate_trainer
 from vehloc.train.module import check_classes, load_classifier, preprocessing_of, read_checkpoint
 
 
@@ -39,7 +40,7 @@ def _run(cfg: DictConfig) -> None:
     evaluate(cfg)
 
 
-@hydra.main(version_base="1.3", config_path=str(CONF_DIR), config_name="eval")
+@hydra.main(version_base="1.3", config_path=str(config_dir()), config_name="eval")
 def main(cfg: DictConfig) -> None:
     _run(cfg)
 

@@ -16,19 +16,19 @@ from lightning.pytorch.loggers import Logger
 from lightning.pytorch.utilities import rank_zero_info, rank_zero_only, rank_zero_warn
 from omegaconf import DictConfig, OmegaConf, open_dict
 
+from vehloc.config import config_dir
 from vehloc.errors import VehlocError
 from vehloc.hardware import cpu_info
 from vehloc.train.datamodule import CompCarsDataModule
 from vehloc.train.module import LitVehicleClassifier
 from vehloc.train.precision import PrecisionChoice, resolve_precision
 
-CONF_DIR = Path(__file__).resolve().parents[2] / "conf"
 
 
 def compose_config(config_name: str, overrides: Sequence[str] = (), output_dir: str | Path = ".") -> DictConfig:
     """Compose `conf/<config_name>.yaml` with overrides outside a Hydra app (notebooks, tests), with
     `paths.output_dir` as the run folder."""
-    with initialize_config_dir(version_base="1.3", config_dir=str(CONF_DIR), job_name=config_name):
+    with initialize_config_dir(version_base="1.3", config_dir=str(config_dir()), job_name=config_name):
         cfg = compose(config_name, overrides=list(overrides), return_hydra_config=True)
     HydraConfig.instance().set_config(cfg)
     with open_dict(cfg):

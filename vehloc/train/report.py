@@ -9,19 +9,8 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
+from vehloc.tables import markdown_table
 from vehloc.train.table1 import DIMS, EvalTables
-
-
-def markdown_table(frame: pd.DataFrame, float_format: str = "{:.2f}") -> str:
-    """A GitHub Markdown table of a frame; floats with `float_format`."""
-    def cell(value: object) -> str:
-        if isinstance(value, (float, np.floating)):
-            return float_format.format(value)
-        return str(value)
-
-    lines = ["| " + " | ".join(map(str, frame.columns)) + " |", "|" + "---|" * len(frame.columns)]
-    lines += ["| " + " | ".join(cell(v) for v in row) + " |" for row in frame.itertuples(index=False)]
-    return "\n".join(lines)
 
 
 def _paper_table1(table1: pd.DataFrame) -> pd.DataFrame:

@@ -10,9 +10,9 @@ import lightning as L
 from lightning.pytorch.utilities import rank_zero_info
 from omegaconf import DictConfig
 
+from vehloc.config import config_dir
 from vehloc.errors import exit_on_error
 from vehloc.train.instantiate import (
-    CONF_DIR,
     instantiate_callbacks,
     instantiate_data_and_model,
     instantiate_loggers,
@@ -52,7 +52,7 @@ def _run(cfg: DictConfig) -> float | None:
     return metrics.get(cfg.get("optimized_metric") or "")
 
 
-@hydra.main(version_base="1.3", config_path=str(CONF_DIR), config_name="train")
+@hydra.main(version_base="1.3", config_path=str(config_dir()), config_name="train")
 def main(cfg: DictConfig) -> float | None:
     return _run(cfg)
 

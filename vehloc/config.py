@@ -1,0 +1,122 @@
+"""Where vehloc's configs live, installed or not, and typed parameter objects built from them.
+
+Every tunable has one home, a YAML file under `conf/`; the parameter dataclasses of the library carry no
+defaults of their own and are built from those files (`params_from_config`), with the value types checked
+against the dataclass's annotations, so a wrong setting is named in one line before any work starts."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import types
+import typing
+from collections.abc import Mapping
+from importlib import resources
+from pathlib import Path
+from typing import Any, TypeVar
+
+import yaml
+
+from vehloc.errors import VehlocError
+
+T = TypeVar("T")
+
+
+class ConfigError(VehlocError):
+    """A setting is unknown, missing, of the wrong type or out of range."""
+
+
+def config_dir() -> Path:
+    """The folder of vehloc's Hydra configs: the repository's `conf/`, installed with the package as
+    `vehloc.conf` (editable or not)."""
+    return Path(str(resources.files("vehloc.conf")))
+
+
+def read_config(relative_path: str) -> dict[str, Any]:
+    """One YAML file of `conf/` as plain data, e.g. `read_config("roi/default.yaml")`."""
+    path = config_dir() / relative_path
+    content = yaml.safe_load(path.read_text(encoding="utf-8"))
+    if not isinstance(content, dict):
+        raise ConfigError(f"{path}: expected a mapping of settings")
+    return content
+
+
+def params_from_config(cls: type[T], relative_path: str, overrides: Mapping[str, Any] | None = None) -> T:
+    """The dataclass `cls` from `conf/<relative_path>`, with `overrides` (nested mappings for nested
+    dataclasses) replacing single settings."""
+    values = _merged(read_config(relative_path), dict(overrides or {}))
+    return build_params(cls, values, Path(relative_path).parent.name or relative_path)
+
+
+def _merged(base: dict[str, Any], overrides: dict[str, Any]) -> dict[str, Any]:
+    merged = dict(base)
+    for key, value in overrides.items():
+        if isinstance(value, Mapping) and isinstance(merged.get(key), Mapping):
+            merged[key] = _merged(dict(merged[key]), dict(value))
+        else:
+            merged[key] = value
+    return merged
+
+
+def build_params(cls: type[T], values: Mapping[str, Any], where: str) -> T:
+    """The dataclass `cls` from a mapping, every value checked against the field's annotation;
+    ConfigError naming the setting (`where.name`) otherwise."""
+    if not isinstance(values, Mapping):
+        raise ConfigError(f"{where}: expected a mapping of settings, got {values!r}")
+    hints = typing.get_type_hints(cls)
+    fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
+    unknown = sorted(set(values) - set(fields))
+    if unknown:
+        raise ConfigError(f"{where}: unknown setting(s) {', '.join(unknown)} (known: {', '.join(fields)})")
+    required = [name for name, f in fields.items()
+                if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING]
+    missing = [name for name in required if name not in values]
+    if missing:
+        raise ConfigError(f"{where}: missing setting(s) {', '.join(missing)}")
+    kwargs = {name: _coerce(hints[name], value, f"{where}.{name}") for name, value in values.items()}
+    try:
+        return cls(**kwargs)
+    except ValueError as err:
+        raise ConfigError(f"{where}: {err}") from None
+
+
+def _coerce(annotation: Any, value: Any, where: str) -> Any:
+    origin, args = typing.get_origin(annotation), typing.get_args(annotation)
+    if origin in (typing.Union, types.UnionType):
+        if value is None and type(None) in args:
+            return None
+        kinds = [a for a in args if a is not type(None)]
+        errors = []
+        for kind in kinds:
+            try:
+                return _coerce(kind, value, where)
+            except ConfigError as err:
+                errors.append(str(err))
+        raise ConfigError(errors[0])
+    if dataclasses.is_dataclass(annotation):
+        return build_params(annotation, value, where)
+    if origin is tuple:
+        if not isinstance(value, (list, tuple)):
+            raise ConfigError(f"{where}: expected a list, got {value!r}")
+        if len(args) == 2 and args[1] is Ellipsis:
+            return tuple(_coerce(args[0], v, f"{where}[{i}]") for i, v in enumerate(value))
+        if len(value) != len(args):
+            raise ConfigError(f"{where}: expected {len(args)} values, got {len(value)}")
+        return tuple(_coerce(kind, v, f"{where}[{i}]") for i, (kind, v) in enumerate(zip(args, value)))
+    if annotation is bool:
+        if not isinstance(value, bool):
+            raise ConfigError(f"{where}: expected true or false, got {value!r}")
+        return value
+    if annotation is int:
+        if isinstance(value, bool) or not (isinstance(value, int) or (isinstance(value, float) and value.is_integer())):
+            raise ConfigError(f"{where}: expected an integer, got {value!r}")
+        return int(value)
+    if annotation is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise ConfigError(f"{where}: expected a finite number, got {value!r}")
+        return float(value)
+    if annotation is str:
+        if not isinstance(value, str):
+            raise ConfigError(f"{where}: expected a string, got {value!r}")
+        return value
+    return value
