@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import pytest
 
@@ -135,3 +136,26 @@ def test_near_plane_clipping_and_road_polygons() -> None:
     outside = camera.project([[2500.0, 0.0, 0.0]])[0]
     assert image[int(round(outside[1])), int(round(outside[0]))] == 0.0
     assert image[0].max() == 0.0  # nothing above the horizon
+
+
+def test_plate_truth_lies_on_the_rendered_plate() -> None:
+    """Seen from 20 deg off the front: the front plate faces the camera, the rear one does not, and the
+    projected front plate is the light plate of the render: within the car, with bright pixels (plate)
+    where the same quad one plate-height lower (bumper) has none."""
+    model = model_by_id(9)
+    pose = CarPose(0.0, 0.0, 0.0)
+    camera = _camera_around(pose, 20.0, 15.0, 7000.0, focal_px=500.0)
+    render = render_car(model, (60, 60, 160), pose, camera, _uniform(90), shadow_strength=0.0)
+    front, rear = render.plates["front"], render.plates["rear"]
+    assert front.faces_camera and not rear.faces_camera
+    np.testing.assert_allclose(front.corners_px, camera.project(front.corners_mm), atol=1e-9)
+    grey = render.image_bgr.mean(axis=2)
+
+    def bright_share(corners_px: np.ndarray) -> float:
+        inside = np.zeros(render.mask.shape, np.uint8)
+        cv2.fillConvexPoly(inside, np.round(corners_px).astype(np.int32), 1)
+        assert inside.sum() > 150 and render.mask[inside > 0].all()
+        return float(np.mean(grey[inside > 0] > 150))
+
+    below = camera.project(front.corners_mm - [0.0, 0.0, 140.0])
+    assert bright_share(front.corners_px) > 0.10 and bright_share(below) < 0.02

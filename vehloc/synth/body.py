@@ -692,21 +692,48 @@ def _add_mirrors(builder: _MeshBuilder, model: CarModel, profile: _Profile) -> N
                 builder.surface(face, Material.MIRROR, face.mean(axis=0) - centre)
 
 
+def _plate_heights_mm(front_cap: _CapFrame, rear_cap: _CapFrame) -> tuple[float, float]:
+    """Height of the centre of the front and rear licence plates."""
+    return (front_cap.v(0.0) + max(0.26 * (front_cap.z1 - front_cap.z0), 95.0),
+            rear_cap.v(0.0) + 0.42 * (rear_cap.z1 - rear_cap.z0))
+
+
 @cache
-def build_car_mesh(model: CarModel) -> Mesh:
-    """The model's mesh in the car frame (cached per model)."""
+def _body(model: CarModel) -> tuple[_Profile, np.ndarray, _CapFrame, _CapFrame]:
+    """The lofted body's profile, cross-section rings and front and rear faces."""
     profile = _Profile(model)
     xs, bottoms = _stations(model, profile)
     rings = _rings(model, profile, xs, bottoms)
+    return profile, rings, _cap_frame(rings[0]), _cap_frame(rings[-1])
+
+
+def plate_corners_car_mm(model: CarModel) -> dict[str, np.ndarray]:
+    """Corners (4, 3) of the front and rear licence plates in the car frame, counter-clockwise seen from
+    outside the car, starting at the lower corner on the car's right."""
+    _, _, front_cap, rear_cap = _body(model)
+    w, h = PLATE_SIZE_MM
+    corners = {}
+    for end, cap, z, sign in (("front", front_cap, _plate_heights_mm(front_cap, rear_cap)[0], 1.0),
+                              ("rear", rear_cap, _plate_heights_mm(front_cap, rear_cap)[1], -1.0)):
+        ys = np.array([-w / 2, w / 2, w / 2, -w / 2]) * sign
+        zs = np.array([z - h / 2, z - h / 2, z + h / 2, z + h / 2])
+        corners[end] = np.column_stack([np.full(4, cap.x), ys, zs])
+    return corners
+
+
+@cache
+def build_car_mesh(model: CarModel) -> Mesh:
+    """The model's mesh in the car frame (cached per model)."""
+    profile, rings, front_cap, rear_cap = _body(model)
     builder = _MeshBuilder()
     front, rear = _loft(builder, model, profile, rings)
     _add_mirrors(builder, model, profile)
-    front_cap, rear_cap = _cap_frame(rings[0]), _cap_frame(rings[-1])
+    front_plate_z, rear_plate_z = _plate_heights_mm(front_cap, rear_cap)
     front_decals = _grille(front_cap, model.details.grille) + _headlights(front_cap, model.details.headlight)
-    front_decals += _plate(front_cap, front_cap.v(0.0) + max(0.26 * (front_cap.z1 - front_cap.z0), 95.0))
+    front_decals += _plate(front_cap, front_plate_z)
     _add_decals(builder, front, front_cap, front_decals)
     rear_decals = _taillights(rear_cap, model.details.taillight)
-    rear_decals += _plate(rear_cap, rear_cap.v(0.0) + 0.42 * (rear_cap.z1 - rear_cap.z0))
+    rear_decals += _plate(rear_cap, rear_plate_z)
     _add_decals(builder, rear, rear_cap, rear_decals)
     for x_axle, track in (
         (model.front_axle_x_mm, model.track_front_mm),

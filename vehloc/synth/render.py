@@ -13,9 +13,8 @@ import cv2
 import numpy as np
 
 from vehloc.data.boxes import Box
-
 from vehloc.geometry.camera import NEAR_PLANE_MM, PinholeCamera
-from vehloc.synth.body import Material, Mesh, build_car_mesh
+from vehloc.synth.body import Material, Mesh, build_car_mesh, plate_corners_car_mm
 from vehloc.synth.catalog import RGB, CarModel
 from vehloc.synth.raster import SUBPIXEL_SHIFT, fill_polygon_px
 
@@ -23,7 +22,6 @@ HEADING_CONVENTION = "heading_deg: angle from world +X to the car's front, count
 """A car pose (x_mm, y_mm, heading_deg) puts the car-frame origin (centre of the footprint on the ground)
 at world (x_mm, y_mm, 0) and turns the car's front (+x of the car frame) from world +X by heading_deg,
 counter-clockwise seen from above (towards +Y); the car's +y (its left) follows, and +z stays up."""
-
 
 
 @dataclass(frozen=True)
@@ -94,7 +92,8 @@ class CarRender:
     ``coverage``: fraction of each pixel covered by the car (H, W). ``box``: tight box of the pixels
     covered at least half, or None when none is.
     Tyre contact points are ordered front-left, front-right, rear-left, rear-right; footprint corners
-    front-left, front-right, rear-right, rear-left (world mm, and pixels).
+    front-left, front-right, rear-right, rear-left (world mm, and pixels). ``plates``: the front and rear
+    licence plates (corners in world mm and pixels, and whether the plate faces the camera).
     """
 
     image_bgr: np.ndarray
@@ -104,11 +103,35 @@ class CarRender:
     tyre_contacts_px: np.ndarray
     footprint_corners_mm: np.ndarray
     footprint_corners_px: np.ndarray
+    plates: dict[str, PlateTruth]
 
     @property
     def mask(self) -> np.ndarray:
         return self.coverage >= 0.5
 
+
+@dataclass(frozen=True, eq=False)
+class PlateTruth:
+    """A licence plate's corners (4, 3) world mm and (4, 2) px, and whether its face is turned to the camera."""
+
+    corners_mm: np.ndarray
+    corners_px: np.ndarray
+    faces_camera: bool
+
+    @property
+    def centre_mm(self) -> np.ndarray:
+        return self.corners_mm.mean(axis=0)
+
+
+def plates_seen(model: CarModel, pose: CarPose, camera: PinholeCamera) -> dict[str, PlateTruth]:
+    """The model's front and rear plates at `pose`, as `camera` sees them."""
+    plates = {}
+    for end, corners_car in plate_corners_car_mm(model).items():
+        corners = pose.car_to_world(corners_car)
+        outward = pose.rotation @ np.array([1.0 if end == "front" else -1.0, 0.0, 0.0])
+        faces = float(outward @ (camera.centre_mm - corners.mean(axis=0))) > 0
+        plates[end] = PlateTruth(corners, camera.project(corners), faces)
+    return plates
 
 
 def tyre_contacts_car_mm(model: CarModel) -> np.ndarray:
@@ -257,4 +280,5 @@ def render_car(
         tyre_contacts_px=camera.project(contacts_mm),
         footprint_corners_mm=corners_mm,
         footprint_corners_px=camera.project(corners_mm),
+        plates=plates_seen(model, pose, camera),
     )

@@ -26,6 +26,7 @@ from vehloc.synth.render import (
     CarPose,
     Lighting,
     footprint_car_mm,
+    plates_seen,
     render_car,
     tyre_contacts_car_mm,
 )
@@ -195,6 +196,12 @@ def ground_truth(spec: SceneSpec, boxes: list[Box | None]) -> dict:
             "footprint_corners_mm": corners_mm[:, :2].tolist(),
             "footprint_corners_px": camera.project(corners_mm).tolist(),
             "footprint_order": ["front_left", "front_right", "rear_right", "rear_left"],
+            "plates": {
+                end: {"corners_mm": plate.corners_mm.tolist(), "corners_px": plate.corners_px.tolist(),
+                      "centre_px": camera.project(plate.centre_mm[None])[0].tolist(), "faces_camera": plate.faces_camera}
+                for end, plate in plates_seen(model, spec.target_pose, camera).items()
+            },
+            "plate_corner_order": "counter-clockwise seen from outside the car, from the lower corner on its right",
         },
         "boxes_xyxy_px": [None if box is None else list(box.to_inclusive()) for box in boxes],
         "box_convention": "0-based inclusive x1 y1 x2 y2 of the pixels the car covers at least half; null when absent",
