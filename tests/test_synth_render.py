@@ -141,7 +141,7 @@ def test_near_plane_clipping_and_road_polygons() -> None:
 def test_plate_truth_lies_on_the_rendered_plate() -> None:
     """Seen from 20 deg off the front: the front plate faces the camera, the rear one does not, and the
     projected front plate is the light plate of the render: within the car, with bright pixels (plate)
-    where the same quad one plate-height lower (bumper) has none."""
+    where the same quad one plate-height lower has none."""
     model = model_by_id(9)
     pose = CarPose(0.0, 0.0, 0.0)
     camera = _camera_around(pose, 20.0, 15.0, 7000.0, focal_px=500.0)
@@ -151,11 +151,11 @@ def test_plate_truth_lies_on_the_rendered_plate() -> None:
     np.testing.assert_allclose(front.corners_px, camera.project(front.corners_mm), atol=1e-9)
     grey = render.image_bgr.mean(axis=2)
 
-    def bright_share(corners_px: np.ndarray) -> float:
+    def quad(corners_px: np.ndarray) -> np.ndarray:
         inside = np.zeros(render.mask.shape, np.uint8)
         cv2.fillConvexPoly(inside, np.round(corners_px).astype(np.int32), 1)
-        assert inside.sum() > 150 and render.mask[inside > 0].all()
-        return float(np.mean(grey[inside > 0] > 150))
+        return inside > 0
 
-    below = camera.project(front.corners_mm - [0.0, 0.0, 140.0])
-    assert bright_share(front.corners_px) > 0.10 and bright_share(below) < 0.02
+    plate, below = quad(front.corners_px), quad(camera.project(front.corners_mm - [0.0, 0.0, 140.0]))
+    assert plate.sum() > 150 and render.mask[plate].all()
+    assert np.mean(grey[plate] > 150) > 0.10 and np.mean(grey[below] > 150) < 0.02
