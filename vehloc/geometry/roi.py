@@ -23,8 +23,9 @@ MOG2_FOREGROUND_VALUE = 255
 
 @dataclass(frozen=True)
 class RoiParams:
-    """Background model and blob filtering."""
+    """Background model and blob filtering (kernel sizes in pixels of the frames as shrunk by `scale`)."""
 
+    scale: float
     history_frames: int
     learning_rate_after_history: float
     mixtures: int
@@ -88,6 +89,12 @@ def clean_mask(mask: np.ndarray, params: RoiParams) -> np.ndarray:
     return filled
 
 
+def scaled_box(box: Box, factor: float, width_px: int, height_px: int) -> Box:
+    """The pixels of a box on an image scaled by `factor`: the smallest box holding them, clipped."""
+    return Box(int(np.floor(box.x0 * factor)), int(np.floor(box.y0 * factor)),
+               int(np.ceil(box.x1 * factor)), int(np.ceil(box.y1 * factor))).clipped(width_px, height_px)
+
+
 def blob_boxes(mask: np.ndarray, min_area_px: int) -> list[Box]:
     """Boxes of the connected components at least `min_area_px` large, largest first."""
     count, _, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
@@ -120,16 +127,36 @@ class VehicleRoiExtractor:
         return self.frames_seen >= self.params.history_frames
 
     def apply(self, frame_bgr: np.ndarray) -> list[Box]:
-        """Update the model with a frame; its vehicle boxes (none while the history is being learnt)."""
+        """Update the model with a frame; its vehicle boxes in frame pixels (none while the history is being
+        learnt)."""
+        scale = self.params.scale
+        small = frame_bgr if scale == 1.0 else cv2.resize(frame_bgr, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
         rate = -1.0 if not self.ready else self.params.learning_rate_after_history
-        raw = self.subtractor.apply(frame_bgr, learningRate=rate)
+        raw = self.subtractor.apply(small, learningRate=rate)
         self.frames_seen += 1
         background = self.subtractor.getBackgroundImage()
-        self.last_mask = clean_mask(remove_shadows(raw, frame_bgr, background, self.params), self.params)
+        self.last_mask = clean_mask(remove_shadows(raw, small, background, self.params), self.params)
         if not self.ready:
             return []
-        height_px, width_px = frame_bgr.shape[:2]
-        return blob_boxes(self.last_mask, int(self.params.min_area_fraction * width_px * height_px))
+        height_px, width_px = small.shape[:2]
+        boxes = blob_boxes(self.last_mask, int(self.params.min_area_fraction * width_px * height_px))
+        frame_height_px, frame_width_px = frame_bgr.shape[:2]
+        return [scaled_box(box, 1.0 / scale, frame_width_px, frame_height_px) for box in boxes]
+
+    def foreground(self, roi: Box) -> np.ndarray:
+        """The last frame's foreground inside `roi` (frame pixels), a bool (roi height, roi width) mask
+        (interpolated from the background model's resolution)."""
+        if self.last_mask is None:
+            raise RuntimeError("no frame has been applied yet")
+        scale = self.params.scale
+        if scale == 1.0:
+            return roi.crop(self.last_mask) > 0
+        # the pixel centres of the ROI, in the background model's pixels
+        xs = (np.arange(roi.x0, roi.x1) + 0.5) * scale - 0.5
+        ys = (np.arange(roi.y0, roi.y1) + 0.5) * scale - 0.5
+        map_x, map_y = np.meshgrid(xs.astype(np.float32), ys.astype(np.float32))
+        values = cv2.remap(self.last_mask, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        return values >= 128
 
 
 @dataclass

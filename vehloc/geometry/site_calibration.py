@@ -21,8 +21,10 @@ from vehloc.geometry.calibration import (
     camera_from_homography,
     image_size_of,
 )
+from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.markers import DetectedMarker, MarkerDetectionParams, detect_markers
 from vehloc.geometry.overlay import draw_calibration
+from vehloc.geometry.projective import ProjectiveTransform
 from vehloc.geometry.site import Site, SiteError
 
 CALIBRATION_MODES = ("detect", "guess")
@@ -38,6 +40,12 @@ class SiteCalibration:
     markers: tuple[DetectedMarker, ...]
     calibration: Calibration
     camera: CameraFromHomography | None
+
+    def camera_calibration(self, source: str) -> CameraCalibration:
+        """The calibration as localization uses it."""
+        return CameraCalibration.from_homography(
+            self.calibration.homography, self.image_size_px, self.calibration.rms_reprojection_px, source
+        )
 
     def summary(self) -> dict[str, object]:
         """JSON-ready figures: homography, inliers, reprojection errors, and the camera when recoverable."""
@@ -107,3 +115,54 @@ def write_calibration_files(
     write_text(out_dir / "calibration.json", json.dumps(summary, indent=2))
     write_image(out_dir / "overlay.png", draw_calibration(image_bgr, list(result.markers), result.calibration, grid_step_mm))
     return summary
+
+
+@dataclass(frozen=True)
+class CameraCalibration:
+    """What localization needs of a calibration: the road homography, the camera when it can be recovered
+    from it, the image size it holds for and its reprojection error."""
+
+    road_to_image: ProjectiveTransform
+    image_size_px: tuple[int, int]
+    camera: PinholeCamera | None
+    rms_reprojection_px: float
+    source: str
+
+    @classmethod
+    def from_homography(cls, homography: np.ndarray, image_size_px: tuple[int, int], rms_reprojection_px: float,
+                        source: str) -> CameraCalibration:
+        road_to_image = ProjectiveTransform.road_to_image(homography, *image_size_px)
+        try:
+            camera = camera_from_homography(road_to_image, *image_size_px).camera
+        except CalibrationError:
+            camera = None
+        return cls(road_to_image, tuple(image_size_px), camera, float(rms_reprojection_px), source)
+
+    def check_image_size(self, width_px: int, height_px: int, what: str) -> None:
+        """CalibrationError when `what` (a video or image) is not of the calibrated size."""
+        if (width_px, height_px) != self.image_size_px:
+            raise CalibrationError(
+                f"{self.source} calibrates {self.image_size_px[0]}x{self.image_size_px[1]} px images, "
+                f"{what} is {width_px}x{height_px} px"
+            )
+
+
+def read_calibration(path: str | Path) -> CameraCalibration:
+    """The calibration written by `vehloc-calibrate` (`calibration.json`); CalibrationError naming the file
+    when it is missing or not one."""
+    path = Path(path)
+    if not path.is_file():
+        raise CalibrationError(f"{path}: calibration file does not exist")
+    try:
+        content = json.loads(path.read_text(encoding="utf-8"))
+        homography = np.array(content["homography_world_mm_to_image_px"], dtype=float)
+        size = tuple(int(v) for v in content["image_size_px"])
+        rms = float(content["rms_reprojection_px"])
+    except (UnicodeDecodeError, json.JSONDecodeError, KeyError, TypeError, ValueError) as err:
+        raise CalibrationError(f"{path}: not a calibration.json of vehloc-calibrate ({type(err).__name__}: {err})") from None
+    if homography.shape != (3, 3) or len(size) != 2 or min(size) <= 0:
+        raise CalibrationError(f"{path}: needs a 3x3 homography and a positive image size")
+    try:
+        return CameraCalibration.from_homography(homography, size, rms, str(path))
+    except ValueError as err:
+        raise CalibrationError(f"{path}: {err}") from None

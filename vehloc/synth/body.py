@@ -675,15 +675,7 @@ def _add_wheel(builder: _MeshBuilder, model: CarModel, x_axle: float, y_centre: 
 
 def _add_mirrors(builder: _MeshBuilder, model: CarModel, profile: _Profile) -> None:
     """Door mirrors: small boxes at the base of the A-pillars (outside the published width)."""
-    x0 = profile.x_cowl - 0.22 * model.shape.windscreen_run_mm
-    z0 = float(profile.belt(x0)) + 40.0
-    half = float(profile.half_width(x0)) - 40.0
-    for side in (-1.0, 1.0):
-        lo = np.array([x0 - 130.0, side * half, z0])
-        hi = np.array([x0, side * (half + 190.0), z0 + 110.0])
-        corners = np.array(
-            [[a, b, c] for a in (lo[0], hi[0]) for b in (lo[1], hi[1]) for c in (lo[2], hi[2])]
-        )
+    for corners in _mirror_corners(model, profile):
         centre = corners.mean(axis=0)
         for axis in range(3):
             for end in (0, 1):
@@ -719,6 +711,35 @@ def plate_corners_car_mm(model: CarModel) -> dict[str, np.ndarray]:
         zs = np.array([z - h / 2, z - h / 2, z + h / 2, z + h / 2])
         corners[end] = np.column_stack([np.full(4, cap.x), ys, zs])
     return corners
+
+
+def _mirror_corners(model: CarModel, profile: _Profile) -> list[np.ndarray]:
+    """The eight corners of each door mirror: small boxes at the base of the A-pillars."""
+    x0 = profile.x_cowl - 0.22 * model.shape.windscreen_run_mm
+    z0 = float(profile.belt(x0)) + 40.0
+    half = float(profile.half_width(x0)) - 40.0
+    mirrors = []
+    for side in (-1.0, 1.0):
+        lo = np.array([x0 - 130.0, side * half, z0])
+        hi = np.array([x0, side * (half + 190.0), z0 + 110.0])
+        mirrors.append(np.array([[a, b, c] for a in (lo[0], hi[0]) for b in (lo[1], hi[1]) for c in (lo[2], hi[2])]))
+    return mirrors
+
+
+def convex_parts_car_mm(model: CarModel) -> tuple[np.ndarray, ...]:
+    """The car's outline as convex parts in the car frame: slabs of the lofted body between every other
+    cross-section, the four tyres and the two mirrors (each part the points whose convex hull it is)."""
+    profile, rings, _, _ = _body(model)
+    stations = list(range(0, len(rings), 2)) + ([len(rings) - 1] if (len(rings) - 1) % 2 else [])
+    parts = [np.vstack([rings[a], rings[b]]) for a, b in zip(stations, stations[1:])]
+    s = model.shape
+    angles = np.linspace(0, 2 * np.pi, 16, endpoint=False)
+    for x_axle, track in ((model.front_axle_x_mm, model.track_front_mm), (model.rear_axle_x_mm, model.track_rear_mm)):
+        circle = np.column_stack([x_axle + s.wheel_radius_mm * np.cos(angles), np.zeros(16),
+                                  s.wheel_radius_mm * (1 + np.sin(angles))])
+        for y_centre in (-track / 2, track / 2):
+            parts += [np.vstack([circle + [0.0, y_centre + dy, 0.0] for dy in (-s.tyre_width_mm / 2, s.tyre_width_mm / 2)])]
+    return tuple(parts + _mirror_corners(model, profile))
 
 
 @cache
