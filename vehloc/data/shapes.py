@@ -19,6 +19,8 @@ from vehloc.atomic import write_text
 from vehloc.errors import DataError
 
 FORMAT = "vehloc vehicle shapes 1"
+SHAPES_FILE = "misc/vehicle_shapes.json"
+"""Where a CompCars-format root keeps its models' shapes (vehloc's addition to the layout; optional)."""
 
 
 @dataclass(frozen=True, eq=False)

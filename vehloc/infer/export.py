@@ -23,6 +23,7 @@ import onnx
 import torch
 
 from vehloc.data.compcars import CompCarsSample
+from vehloc.data.shapes import VehicleShape
 from vehloc.data.specs import VehicleSpec
 from vehloc.errors import VehlocError
 from vehloc.infer.classifier import VehicleClassifier
@@ -69,8 +70,9 @@ def file_sha256(path: Path) -> str:
     return digest.hexdigest()
 
 
-def metadata_of(checkpoint: dict, checkpoint_path: Path) -> ModelMetadata:
-    """The metadata of a checkpoint's classifier: its class table and preprocessing."""
+def metadata_of(checkpoint: dict, checkpoint_path: Path, shapes: dict[int, VehicleShape] | None = None) -> ModelMetadata:
+    """The metadata of a checkpoint's classifier: its class table and preprocessing, and the shapes of those
+    of its classes that `shapes` has."""
     hp = checkpoint["hyper_parameters"]
     wheelbases = hp.get("class_wheelbases_mm") or [None] * len(hp["class_model_ids"])
     classes = tuple(
@@ -85,6 +87,7 @@ def metadata_of(checkpoint: dict, checkpoint_path: Path) -> ModelMetadata:
         backbone=str(hp["backbone"]["name"]),
         source_checkpoint_sha256=file_sha256(checkpoint_path),
         expected_top_k=int(hp.get("expected_top_k", 5)),
+        shapes={c.model_id: shapes[c.model_id] for c in classes if shapes and c.model_id in shapes},
     )
 
 
@@ -101,15 +104,17 @@ def export_checkpoint(
     parity_samples: Sequence[CompCarsSample],
     opset: int = DEFAULT_OPSET,
     tolerance: float = 1e-4,
+    shapes: dict[int, VehicleShape] | None = None,
 ) -> ExportReport:
     """Export, check and atomically place the ONNX model of a checkpoint (see the module docstring); the
-    parity check runs on `parity_samples`, labelled images of the checkpoint's kind."""
+    parity check runs on `parity_samples`, labelled images of the checkpoint's kind. `shapes` (by model id)
+    go into the metadata for the classes they cover."""
     if opset < 17:
         raise ExportError(f"opset {opset} is below 17, the lowest vehloc exports")
     if not parity_samples:
         raise ExportError("the parity check needs at least one real image")
     checkpoint = read_checkpoint(checkpoint_path)
-    metadata = metadata_of(checkpoint, Path(checkpoint_path))
+    metadata = metadata_of(checkpoint, Path(checkpoint_path), shapes)
     deployed = DeployedClassifier(load_classifier(checkpoint)).eval()
     images = pytorch_inputs(parity_samples, metadata)
 

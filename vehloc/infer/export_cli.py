@@ -8,6 +8,7 @@ import hydra
 from omegaconf import DictConfig, OmegaConf
 
 from vehloc.data.compcars import read_compcars
+from vehloc.data.shapes import SHAPES_FILE, read_shapes
 from vehloc.config import config_dir
 from vehloc.errors import VehlocError, exit_on_error
 from vehloc.infer.export import export_checkpoint
@@ -30,10 +31,14 @@ def _run(cfg: DictConfig) -> None:
     test = read_compcars(cfg.data_root).test
     step = max(1, len(test) // cfg.parity_images)
     output = Path(cfg.output) if cfg.output else default_output(checkpoint_path)
-    report = export_checkpoint(checkpoint_path, output, test[::step][: cfg.parity_images], cfg.opset, cfg.tolerance)
+    shapes_path = Path(cfg.data_root) / SHAPES_FILE
+    shapes = read_shapes(shapes_path) if shapes_path.is_file() else None
+    report = export_checkpoint(checkpoint_path, output, test[::step][: cfg.parity_images], cfg.opset, cfg.tolerance,
+                               shapes)
     print(
         f"wrote {report.output} (opset {report.opset}); parity on {report.parity_images} test images of "
         f"{cfg.data_root}: max |logit diff| {report.max_abs_logit_diff:.2e}, same top-1 on {report.top1_agreement:.0%}"
+        + (f"; with the shapes of {shapes_path}" if shapes else "")
     )
 
 

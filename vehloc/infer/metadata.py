@@ -1,8 +1,9 @@
 """What a vehloc ONNX file carries besides its graph: classes, their dimensions, preprocessing.
 
 Stored as one JSON document under the metadata key `vehloc`, so that a user needs nothing but the
-`.onnx` file: the classes are the specs rows of their models (id, make, model, L/W/H, wheelbase), and the
-preprocessing is the one of `vehloc.data.preprocess` (ROI enlargement, resize, crop, RGB in [0, 1]); the
+`.onnx` file: the classes are the specs rows of their models (id, make, model, L/W/H, wheelbase), with their shapes
+when the training data had them (`vehloc.data.shapes`, for the model fit), and the preprocessing is the
+one of `vehloc.data.preprocess` (ROI enlargement, resize, crop, RGB in [0, 1]); the
 graph takes (N, 3, S, S) inputs, normalises them itself (the preprocessing's mean/std, recorded for
 reference) and returns logits and probabilities per class.
 """
@@ -16,6 +17,7 @@ import numpy as np
 import onnx
 
 from vehloc.data.preprocess import Preprocessing
+from vehloc.data.shapes import VehicleShape, shapes_from_json, shapes_to_json
 from vehloc.data.specs import VehicleSpec
 from vehloc.errors import VehlocError
 
@@ -40,6 +42,14 @@ class ModelMetadata:
     output_names: tuple[str, str] = ("logits", "probabilities")
     format_version: int = FORMAT_VERSION
     notes: dict[str, str] = field(default_factory=dict)
+    shapes: dict[int, VehicleShape] = field(default_factory=dict)
+
+    def shape_of(self, model_id: int) -> VehicleShape:
+        """The model's shape when the file carries one, else the cuboid of its dimensions."""
+        if model_id in self.shapes:
+            return self.shapes[model_id]
+        spec = next(c for c in self.classes if c.model_id == model_id)
+        return VehicleShape.cuboid(spec.length_mm, spec.width_mm, spec.height_mm)
 
     @property
     def dims_mm(self) -> np.ndarray:
@@ -47,7 +57,9 @@ class ModelMetadata:
         return np.array([c.dims_mm for c in self.classes], dtype=float).reshape(-1, 3)
 
     def to_json(self) -> str:
-        return json.dumps({**asdict(self), "preprocessing": self.preprocessing.as_dict()}, sort_keys=True)
+        values = {**asdict(self), "preprocessing": self.preprocessing.as_dict()}
+        values["shapes"] = shapes_to_json(self.shapes)
+        return json.dumps(values, sort_keys=True)
 
     @classmethod
     def from_json(cls, text: str, source: str) -> ModelMetadata:
@@ -61,6 +73,7 @@ class ModelMetadata:
                 )
             values["classes"] = tuple(VehicleSpec(**entry) for entry in values["classes"])
             values["preprocessing"] = Preprocessing.from_dict(values["preprocessing"])
+            values["shapes"] = shapes_from_json(values["shapes"], source)
             values["output_names"] = tuple(values["output_names"])
             return cls(**values)
         except (json.JSONDecodeError, KeyError, TypeError, ValueError, AttributeError) as exc:

@@ -15,7 +15,8 @@ from functools import cache
 
 import numpy as np
 
-from vehloc.synth.catalog import CarModel
+from vehloc.data.shapes import VehicleShape
+from vehloc.synth.catalog import CATALOG, CarModel
 
 PLATE_SIZE_MM = (440.0, 140.0)
 """Licence plate width and height (the Chinese standard plate)."""
@@ -763,3 +764,8 @@ def build_car_mesh(model: CarModel) -> Mesh:
         for side in (-1.0, 1.0):
             _add_wheel(builder, model, x_axle, side * track / 2)
     return builder.build()
+
+
+def catalog_shapes() -> dict[int, VehicleShape]:
+    """The shape of every catalog model, by model id (what `misc/vehicle_shapes.json` of the demo set holds)."""
+    return {model.model_id: VehicleShape(convex_parts_car_mm(model)) for model in CATALOG}

@@ -21,10 +21,12 @@ from tqdm import tqdm
 from vehloc.data.attributes import write_attributes
 from vehloc.data.compcars import write_label, write_split_list
 from vehloc.data.matfile import write_make_model_names
+from vehloc.data.shapes import SHAPES_FILE, write_shapes
 from vehloc.data.specs import write_specs_csv
 from vehloc.errors import VehlocError
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.synth.background import random_background
+from vehloc.synth.body import catalog_shapes
 from vehloc.synth.catalog import (
     CATALOG,
     RGB,
@@ -245,7 +247,7 @@ def make_demo_set(
 
     ``views``: "traffic" or "any" (see `VIEWS`). Images, labels (true viewpoint, tight box), stratified
     split lists, `misc/make_model_name.mat`,
-    `misc/attributes.txt` and `specs.csv`. A folder written by an earlier run is rewritten; any other
+    `misc/attributes.txt`, `specs.csv` and the models' shapes, `misc/vehicle_shapes.json`. A folder written by an earlier run is rewritten; any other
     non-empty folder is refused. With ``workers`` > 1 the images are drawn in spawned processes, so a
     script calling this must do so under ``if __name__ == "__main__":``.
     """
@@ -278,5 +280,6 @@ def make_demo_set(
     write_make_model_names(out_dir / "misc" / "make_model_name.mat", make_names(), model_names())
     write_attributes(out_dir / "misc" / "attributes.txt", model_attributes())
     write_specs_csv(out_dir / "specs.csv", vehicle_specs())
+    write_shapes(out_dir / SHAPES_FILE, catalog_shapes())
     (out_dir / MARKER_FILE).write_text("written by vehloc.synth.demo_set.make_demo_set\n")
     return out_dir
