@@ -165,7 +165,9 @@ def test_plate_truth_lies_on_the_rendered_plate() -> None:
     assert np.mean(grey[plate] > 150) > 0.10 and np.mean(grey[below] > 150) < 0.02
 
 
-def _full_frame_render(model_id: int, pose: CarPose, camera: PinholeCamera, background: np.ndarray) -> tuple[np.ndarray, Box | None]:
+def _full_frame_render(
+    model_id: int, pose: CarPose, camera: PinholeCamera, background: np.ndarray
+) -> tuple[np.ndarray, Box | None]:
     """The car drawn as before the renderer kept to the car's region: a supersampled layer of the whole
     frame, and both shadows filled and blurred over the whole frame."""
     model, lighting, strength = model_by_id(model_id), Lighting(), 0.55
