@@ -40,6 +40,7 @@ def test_a_written_scene_reads_back_exactly(written: tuple[SceneSpec, Path, list
         assert (car.model_id, car.make, car.model) == (model.model_id, model.make, model.name)
         assert (car.length_mm, car.width_mm, car.height_mm, car.wheelbase_mm) == (
             model.length_mm, model.width_mm, model.height_mm, model.wheelbase_mm)
+        assert car.axle_middle_x_mm == (model.front_axle_x_mm + model.rear_axle_x_mm) / 2
         assert (car.stops, car.entry_frame, car.stop_frame) == (
             car_spec.stops, spec.entry_frame(car_spec), spec.stop_frame(car_spec))
         assert car.target_pose == RoadPose(car_spec.target_x_mm, car_spec.target_y_mm, car_spec.target_heading_deg)

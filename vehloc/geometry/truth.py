@@ -47,7 +47,9 @@ class PlateTruth:
 class CarTruth:
     """One car of a scene. Tyre contacts (4, 2) mm: front-left, front-right, rear-left, rear-right; footprint
     corners (4, 2) mm: front-left, front-right, rear-right, rear-left; both at the target pose, where a
-    stopping car stops and a passing car is at mid-time. ``poses`` and ``boxes`` hold one entry per frame,
+    stopping car stops and a passing car is at mid-time. ``axle_middle_x_mm``: where the middle between the
+    axles lies along the car, from the footprint's centre towards the front (a specification, with the
+    tyres it gives the true pose as the paper measures it). ``poses`` and ``boxes`` hold one entry per frame,
     None while the car is not in the scene (poses) or not in view (boxes)."""
 
     model_id: int
@@ -57,6 +59,7 @@ class CarTruth:
     width_mm: float
     height_mm: float
     wheelbase_mm: float
+    axle_middle_x_mm: float
     stops: bool
     entry_frame: int
     stop_frame: int | None
@@ -164,6 +167,7 @@ def _car(reader: _Reader, raw: Any, where: str, frame_count: int) -> CarTruth:
         width_mm=reader.value(raw, "width_mm", where, float),
         height_mm=reader.value(raw, "height_mm", where, float),
         wheelbase_mm=reader.value(raw, "wheelbase_mm", where, float),
+        axle_middle_x_mm=reader.value(raw, "axle_middle_x_mm", where, float),
         stops=reader.value(raw, "stops", where, _boolean),
         entry_frame=reader.value(raw, "entry_frame", where, int),
         stop_frame=reader.value(raw, "stop_frame", where, _optional(int)),

@@ -247,6 +247,7 @@ def _car_truth(spec: SceneSpec, car: CarSpec, camera: PinholeCamera, boxes: Sequ
         "width_mm": model.width_mm,
         "height_mm": model.height_mm,
         "wheelbase_mm": model.wheelbase_mm,
+        "axle_middle_x_mm": (model.front_axle_x_mm + model.rear_axle_x_mm) / 2,
         "stops": car.stops,
         "entry_frame": spec.entry_frame(car),
         "stop_frame": spec.stop_frame(car),
