@@ -56,7 +56,8 @@ def main(cfg: DictConfig) -> None:
     out_dir = Path(HydraConfig.get().runtime.output_dir)
     params = _params(PipelineParams, cfg, "pipeline")
     roi, tracker, fit = _params(RoiParams, cfg, "roi"), _params(TrackerParams, cfg, "tracker"), _params(FitParams, cfg, "fit")
-    detectors = DetectorParams.from_mapping(OmegaConf.to_container(cfg.detectors, resolve=True))
+    detectors = DetectorParams.from_mapping(
+        {group: OmegaConf.to_container(cfg[group], resolve=True) for group in ("footprint", "plate", "wheels")})
     calibration = read_calibration(cfg.calibration)
     classifier = VehicleClassifier.from_onnx(cfg.model)
     truth = read_scene_truth(cfg.truth) if cfg.truth else None

@@ -1,0 +1,112 @@
+"""The paper's key footprint points (Sec. II-E) and its placement of the box (Sec. II-F).
+
+The plate branch, first: O is the footprint point below the plate's middle P, where the image of the
+vertical through P (towards the camera's vertical vanishing point) meets the front line l_F; C lies along
+the side line's direction, into the vehicle; the box's visible end is stuck to O_W with its long
+centreline along O_W C_W. The wheel branch, when no plate is found: the two near tyres' crossings with
+the side line l_S, Q their middle on the road, C along the front line's direction, into the vehicle; the
+box's near side is stuck to Q_W between the axles with its short centreline along Q_W C_W.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from vehloc.config import build_params
+from vehloc.data.boxes import Box
+from vehloc.data.specs import VehicleSpec
+from vehloc.errors import VehlocError
+from vehloc.geometry.footprint import FootprintParams, detect_footprint
+from vehloc.geometry.placement import VehicleBox, direction_of, place_on_end, place_on_side
+from vehloc.geometry.plate import PlateParams, detect_plate
+from vehloc.geometry.site_calibration import CameraCalibration
+from vehloc.geometry.wheels import WheelParams, detect_wheels
+
+C_DISTANCE_MM = 1000.0
+"""How far along the reference direction the paper's point C is taken."""
+
+
+class NotLocalized(VehlocError):
+    """The key points cannot be found; the message says why."""
+
+
+@dataclass(frozen=True)
+class DetectorParams:
+    """The settings of the three detectors (`conf/footprint`, `conf/plate`, `conf/wheels`)."""
+
+    footprint: FootprintParams
+    plate: PlateParams
+    wheels: WheelParams
+
+    @classmethod
+    def from_config(cls) -> DetectorParams:
+        return cls(FootprintParams.from_config(), PlateParams.from_config(), WheelParams.from_config())
+
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, object]) -> DetectorParams:
+        """From a composed config holding the `footprint`, `plate` and `wheels` groups."""
+        return cls(build_params(FootprintParams, values["footprint"], "footprint"),
+                   build_params(PlateParams, values["plate"], "plate"),
+                   build_params(WheelParams, values["wheels"], "wheels"))
+
+
+@dataclass(frozen=True)
+class Placement:
+    """The paper's estimate: the box, the branch (`plate` or `wheels`), the key point (O or Q) and C on the
+    road, and the distance that sets the heading (for its uncertainty)."""
+
+    box: VehicleBox
+    kind: str
+    key_point_mm: np.ndarray
+    c_point_mm: np.ndarray
+    baseline_mm: float
+
+
+def inward(heading_deg: float, point_mm: np.ndarray, camera_foot_mm: np.ndarray) -> np.ndarray:
+    """The road direction of `heading_deg` (or its opposite) that points from `point_mm` away from the camera."""
+    direction = direction_of(heading_deg)
+    return direction if direction @ (point_mm - camera_foot_mm) >= 0 else -direction
+
+
+def below_plate_px(calibration: CameraCalibration, plate_centre_px: np.ndarray, front_line_px: np.ndarray) -> np.ndarray:
+    """O: where the image of the vertical through P meets l_F (both homogeneous lines, frame px)."""
+    camera = calibration.camera
+    vertical_vanishing = camera.K @ camera.R[:, 2]
+    vertical = np.cross([*plate_centre_px, 1.0], vertical_vanishing)
+    point = np.cross(vertical, front_line_px)
+    if abs(point[2]) < 1e-12:
+        raise NotLocalized("the plate's vertical runs parallel to the front footprint line")
+    return point[:2] / point[2]
+
+
+def paper_placement(
+    roi_bgr: np.ndarray, mask: np.ndarray, roi: Box, calibration: CameraCalibration, spec: VehicleSpec,
+    params: DetectorParams,
+) -> Placement:
+    """The paper's placement of the predicted model's box (`spec`) from the vehicle in `roi` (its crop and
+    foreground); NotLocalized saying why when the key points cannot be found."""
+    road_to_image, offset = calibration.road_to_image, np.array([roi.x0, roi.y0], dtype=float)
+    foot = calibration.camera.centre_mm[:2]
+    lines = detect_footprint(roi_bgr, mask, offset, road_to_image, foot, params.footprint)
+    if lines is None:
+        raise NotLocalized("no footprint lines: the vehicle's edges show no road direction")
+    length_mm, width_mm = spec.length_mm, spec.width_mm
+    plate = detect_plate(roi_bgr, mask, offset, params.plate)
+    if plate is not None:
+        o_mm = road_to_image.inverse.map_visible(below_plate_px(calibration, plate.centre_px, lines.front_line_px), "O")[0]
+        into = inward(lines.length_heading_deg, o_mm, foot)
+        box = place_on_end(o_mm, into, length_mm, width_mm)
+        return Placement(box, "plate", o_mm, o_mm + C_DISTANCE_MM * into, length_mm / 2)
+    wheels = detect_wheels(roi_bgr, mask, offset, road_to_image, foot, params.wheels, lines.side_line_px)
+    if wheels is None or len(wheels.wheels) < 2:
+        found = "one wheel" if wheels is not None else "no wheel"
+        raise NotLocalized(f"neither a licence plate nor two wheels found (found {found})")
+    contacts_px = np.array([w.side_crossing_px if w.side_crossing_px is not None else w.contact_px for w in wheels.wheels])
+    contacts_mm = road_to_image.inverse.map_visible(contacts_px, "tyre contact")
+    q_mm = contacts_mm.mean(axis=0)
+    into = inward(lines.length_heading_deg + 90.0, q_mm, foot)
+    box = place_on_side(q_mm, into, length_mm, width_mm)
+    return Placement(box, "wheels", q_mm, q_mm + C_DISTANCE_MM * into, float(np.linalg.norm(contacts_mm[1] - contacts_mm[0])))
