@@ -1,16 +1,20 @@
 """Licence plate in a vehicle ROI (paper, Sec. II-E): colour, then edges; its quadrilateral, its upper and lower
 lines l_UL and l_LL, and its middle point P.
 
-The plate's background colour is a rule in HSV (light plates with dark characters by default: low saturation,
-and lighter than their surroundings, a white top-hat with a kernel a few times the plate's light strokes;
-blue Chinese plates by another hue, saturation and value range with the top-hat off). A closing along the rows
-joins the plate's colour across the characters and holes are filled. Each such blob is then taken again at
-its own level: plate-coloured pixels at least half-way from the darkest value around it to its own light,
-which parts the plate from a body of middle tone touching it across the plate's dark border. A blob is a plate when its
-quadrilateral has a plate's aspect, the blob fills it, and a row through its middle crosses the characters.
-Each side of the quadrilateral is then placed on the image edges, where the intensity crosses half-way between
-the plate's colour and its surroundings, interpolated between pixels; P is where the diagonals meet (the
-image of the plate's centre, whatever the perspective).
+The plate's background colour is a rule in HSV: light plates with dark characters by default (low saturation,
+lighter than their surroundings by a white top-hat whose kernel is a few times the plate's strokes), blue
+Chinese plates with white characters by another hue, saturation and value range with the top-hat off. A closing
+along the rows joins the plate's colour across the characters and the blobs' holes are filled. The characters
+are the pixels of such a blob that are not plate-coloured, grouped into rows of parts of about the same height
+side by side (characters too close to be told apart make one part, as wide as several), each part spanning most
+of the row's height (the wedges between a wheel's spokes do not). Each row is the core of
+a candidate plate, whose four sides are then found from the inside out on the image edges: every profile from
+the core outwards crosses the plate's colour and then leaves it at the plate's edge, where the intensity passes
+half-way between the plate's and the characters' levels, interpolated between samples. Starting inside, the
+search is not misled by a lit strip of body that touches the plate. A candidate is a plate when its
+quadrilateral has a plate's size and aspect, a plate's share of characters, its sides were found, and a row
+through its middle crosses the characters. P is where the diagonals meet: the image of the plate's centre,
+whatever the perspective.
 """
 
 from __future__ import annotations
@@ -22,12 +26,13 @@ import numpy as np
 from scipy.ndimage import map_coordinates
 
 from vehloc.config import params_from_config
-from vehloc.geometry.markers import quadrilateral_of_blob
+
+PIXEL_SQUARE = np.array([[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]])
 
 
 @dataclass(frozen=True)
 class PlateParams:
-    """Colour rule (OpenCV's 8-bit HSV: H 0-180, S and V 0-255), blob tests and edge refinement."""
+    """Colour rule (OpenCV's 8-bit HSV: H 0-180, S and V 0-255), character rows, edges and plate tests."""
 
     hue_range: tuple[int, int]
     saturation_range: tuple[int, int]
@@ -35,15 +40,17 @@ class PlateParams:
     min_contrast: float
     tophat_fraction: float
     close_px: tuple[int, int]
+    min_characters: int
+    run_together_aspect: float
+    min_character_height_fraction: float
+    edge_reach_fraction: float
+    min_fitted_side_px: float
     min_width_px: float
     max_width_fraction: float
     aspect_range: tuple[float, float]
-    min_fill: float
     character_fraction_range: tuple[float, float]
     min_crossings: int
     expected_crossings: int
-    edge_reach_fraction: float
-    min_fitted_side_px: float
     min_score: float
 
     @classmethod
@@ -56,11 +63,11 @@ class PlateParams:
 class Plate:
     """A detected licence plate in frame px.
 
-    ``corners_px`` (4, 2): top-left, top-right, bottom-right, bottom-left as seen in the image;
-    ``centre_px``: P, where the diagonals meet; ``upper_line_px`` and ``lower_line_px``: l_UL and l_LL,
-    homogeneous `a x + b y + c = 0` with `a^2 + b^2 = 1` and the plate on the positive side;
-    ``score`` in [0, 1]: how much the blob fills its quadrilateral times how clearly its middle row crosses
-    the characters."""
+    ``corners_px`` (4, 2): top-left, top-right, bottom-right, bottom-left as seen in the image (the edge of the
+    plate's colour); ``centre_px``: P, where the diagonals meet; ``upper_line_px`` and ``lower_line_px``: l_UL
+    and l_LL, homogeneous `a x + b y + c = 0` with `a^2 + b^2 = 1` and the plate on the positive side;
+    ``score`` in [0, 1]: the share of the plate's four sides found on the image edges times how clearly a row
+    through its middle crosses the characters."""
 
     corners_px: np.ndarray
     centre_px: np.ndarray
@@ -96,6 +103,38 @@ def filled_blobs(mask: np.ndarray, close_px: tuple[int, int]) -> list[np.ndarray
     return blobs
 
 
+def character_rows(characters: np.ndarray, min_characters: int, run_together_aspect: float) -> list[np.ndarray]:
+    """Rows (bool masks) of character-like parts: parts of about the same height (within a factor 1.5), level
+    with each other (centres within half a height) and at most a height apart, chained; a row needs
+    `min_characters` parts, or fewer that run together (a part `run_together_aspect` times wider than tall)."""
+    count, labels, stats, centres = cv2.connectedComponentsWithStats(characters.astype(np.uint8), connectivity=8)
+    parts = [k for k in range(1, count) if stats[k, cv2.CC_STAT_AREA] >= 2]
+    group = {k: k for k in parts}
+
+    def root(k: int) -> int:
+        while group[k] != k:
+            k = group[k]
+        return k
+
+    for i, a in enumerate(parts):
+        for b in parts[i + 1:]:
+            ha, hb = stats[a, cv2.CC_STAT_HEIGHT], stats[b, cv2.CC_STAT_HEIGHT]
+            left = min(stats[a, cv2.CC_STAT_LEFT] + stats[a, cv2.CC_STAT_WIDTH], stats[b, cv2.CC_STAT_LEFT]
+                       + stats[b, cv2.CC_STAT_WIDTH])
+            gap = max(stats[a, cv2.CC_STAT_LEFT], stats[b, cv2.CC_STAT_LEFT]) - left
+            if (max(ha, hb) <= 1.5 * min(ha, hb) and abs(centres[a, 1] - centres[b, 1]) <= max(ha, hb) / 2
+                    and gap <= max(ha, hb)):
+                group[root(b)] = root(a)
+    rows = []
+    for r in {root(k) for k in parts}:
+        members = [k for k in parts if root(k) == r]
+        widths = stats[members, cv2.CC_STAT_WIDTH]
+        heights = stats[members, cv2.CC_STAT_HEIGHT]
+        if len(members) >= min_characters or np.any(widths >= run_together_aspect * heights):
+            rows.append(np.isin(labels, members))
+    return rows
+
+
 def order_corners(quad_px: np.ndarray) -> np.ndarray:
     """Four corners ordered top-left, top-right, bottom-right, bottom-left on screen (the plate's long sides
     are its top and bottom)."""
@@ -106,6 +145,78 @@ def order_corners(quad_px: np.ndarray) -> np.ndarray:
         quad = np.roll(quad, -1, axis=0)  # make sides 0 and 2 the long ones
     top_first = quad[0, 1] + quad[1, 1] <= quad[2, 1] + quad[3, 1]
     return quad if top_first else np.roll(quad, 2, axis=0)
+
+
+def core_corners(row: np.ndarray) -> np.ndarray:
+    """Corners (ordered) of the rotated rectangle around a row's pixel squares."""
+    rows, cols = np.nonzero(row)
+    squares = np.column_stack([cols, rows])[:, None, :] + PIXEL_SQUARE[None]
+    return order_corners(cv2.boxPoints(cv2.minAreaRect(squares.reshape(-1, 2).astype(np.float32))).astype(float))
+
+
+def character_height_fraction(row: np.ndarray, core: np.ndarray) -> float:
+    """The mean extent of a row's parts across the row, as a fraction of the row's height: near 1 for characters,
+    which all span the row, less for the wedges between a wheel's spokes."""
+    across = core[3] - core[0]
+    height_px = float(np.linalg.norm(across))
+    count, labels = cv2.connectedComponents(row.astype(np.uint8), connectivity=8)
+    spans = []
+    for k in range(1, count):
+        rows, cols = np.nonzero(labels == k)
+        along = np.column_stack([cols, rows]) @ (across / height_px)
+        spans.append(along.max() - along.min() + 1.0)
+    return float(np.mean(spans)) / height_px
+
+
+def edge_outwards(
+    grey: np.ndarray, start_px: np.ndarray, end_px: np.ndarray, level: float, plate_above: bool, reach_px: float,
+    min_fitted_px: float,
+) -> np.ndarray | None:
+    """The line (homogeneous) through the points where profiles leaving one side of the character core outwards
+    first leave the plate's colour (the intensity passes `level` away from the plate's side after being on it),
+    interpolated between samples: fitted to them on a side of `min_fitted_px` or more, else parallel to the side
+    at their median offset; None when fewer than half the profiles leave the plate."""
+    direction = (end_px - start_px) / np.linalg.norm(end_px - start_px)
+    outward = np.array([direction[1], -direction[0]])  # corners clockwise on screen: the right-hand normal points out
+    samples = max(3, int(np.linalg.norm(end_px - start_px)))
+    centres = start_px + np.linspace(0.1, 0.9, samples)[:, None] * (end_px - start_px)
+    offsets = np.arange(-1.0, reach_px + 0.125, 0.25)
+    points = centres[:, None, :] + offsets[None, :, None] * outward
+    profiles = map_coordinates(grey, [points[..., 1], points[..., 0]], order=1, mode="nearest") - level
+    found = []
+    for centre, profile in zip(centres, profiles if plate_above else -profiles):
+        leaving = np.flatnonzero((profile[:-1] >= 0) & (profile[1:] < 0))
+        if len(leaving):
+            i = leaving[0]
+            found.append((centre, offsets[i] + profile[i] / (profile[i] - profile[i + 1]) * (offsets[i + 1] - offsets[i])))
+    if 2 * len(found) < samples:
+        return None
+    if np.linalg.norm(end_px - start_px) < min_fitted_px or len(found) < 3:
+        through = start_px + float(np.median([offset for _, offset in found])) * outward
+        return np.array([outward[0], outward[1], -outward @ through])
+    points = np.array([centre + offset * outward for centre, offset in found])
+    mean = points.mean(axis=0)
+    normal = np.linalg.svd(points - mean)[2][1]
+    return np.array([normal[0], normal[1], -normal @ mean])
+
+
+def plate_corners(
+    grey: np.ndarray, core: np.ndarray, level: float, plate_above: bool, params: PlateParams
+) -> tuple[np.ndarray, int] | None:
+    """The plate's corners around a character core, from its four sides found outwards on the image edges (a side
+    not found stays on the core), and how many sides were found; None when the sides do not meet."""
+    reach_px = params.edge_reach_fraction * np.linalg.norm(core[3] - core[0])
+    lines, found = [], 0
+    for k in range(4):
+        start, end = core[k], core[(k + 1) % 4]
+        line = edge_outwards(grey, start, end, level, plate_above, reach_px if k % 2 == 0 else 2 * reach_px,
+                             params.min_fitted_side_px)
+        found += line is not None
+        lines.append(line if line is not None else np.cross([*start, 1.0], [*end, 1.0]))
+    corners = np.array([np.cross(lines[k - 1], lines[k]) for k in range(4)])
+    if np.any(np.abs(corners[:, 2]) < 1e-12):
+        return None
+    return corners[:, :2] / corners[:, 2:], found
 
 
 def middle_row_crossings(grey: np.ndarray, corners_px: np.ndarray) -> int:
@@ -119,97 +230,26 @@ def middle_row_crossings(grey: np.ndarray, corners_px: np.ndarray) -> int:
     return int(np.count_nonzero(above[1:] != above[:-1]))
 
 
-def plate_shape(blob: np.ndarray, colour: np.ndarray, grey: np.ndarray, params: PlateParams, roi_width_px: int
-                ) -> tuple[np.ndarray, float] | None:
-    """The blob's quadrilateral (corners ordered) and its plate score, or None when it is not plate-like."""
-    quad = quadrilateral_of_blob(blob.astype(np.uint8))
-    if quad is None:
-        return None
-    corners = order_corners(quad)
+def plate_score(
+    grey: np.ndarray, plate_coloured: np.ndarray, corners: np.ndarray, sides_found: int, params: PlateParams,
+    roi_width_px: int,
+) -> float:
+    """The plate score of a quadrilateral (see `Plate`), 0 when it has not a plate's size, aspect or share of
+    characters or its middle row crosses too few of them."""
     width_px = (np.linalg.norm(corners[1] - corners[0]) + np.linalg.norm(corners[2] - corners[3])) / 2
     height_px = (np.linalg.norm(corners[3] - corners[0]) + np.linalg.norm(corners[2] - corners[1])) / 2
     if not params.min_width_px <= width_px <= params.max_width_fraction * roi_width_px:
-        return None
+        return 0.0
     if not params.aspect_range[0] <= width_px / max(height_px, 1e-9) <= params.aspect_range[1]:
-        return None
-    fill = np.count_nonzero(blob) / max(cv2.contourArea(corners.astype(np.float32)), 1.0)
-    characters = 1.0 - colour[blob].mean()
+        return 0.0
+    inside = np.zeros(grey.shape, np.uint8)
+    cv2.fillPoly(inside, [np.round(corners * 16).astype(np.int32)], 1, cv2.LINE_8, 4)
+    characters = 1.0 - plate_coloured[inside.astype(bool)].mean() if inside.any() else 0.0
     crossings = middle_row_crossings(grey, corners)
     low, high = params.character_fraction_range
-    if fill < params.min_fill or not low <= characters <= high or crossings < params.min_crossings:
-        return None
-    return corners, float(min(fill, 1.0) * min(1.0, crossings / params.expected_crossings))
-
-
-def character_core(blob: np.ndarray, colour: np.ndarray) -> np.ndarray | None:
-    """Corners (ordered) of the rotated rectangle around the blob's characters (its pixels not of the plate's
-    colour, in parts at least half as tall as the tallest, which leaves out slivers of border), or None."""
-    count, labels, stats, _ = cv2.connectedComponentsWithStats((blob & ~colour).astype(np.uint8), connectivity=8)
-    if count < 2:
-        return None
-    heights = stats[1:, cv2.CC_STAT_HEIGHT]
-    keep = 1 + np.flatnonzero(heights >= heights.max() / 2)
-    rows, cols = np.nonzero(np.isin(labels, keep))
-    squares = (np.column_stack([cols, rows])[:, None, :] + [[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]])
-    return order_corners(cv2.boxPoints(cv2.minAreaRect(squares.reshape(-1, 2).astype(np.float32))).astype(float))
-
-
-def edge_outwards(
-    grey: np.ndarray, start_px: np.ndarray, end_px: np.ndarray, level: float, plate_above: bool, reach_px: float,
-    min_fitted_px: float,
-) -> np.ndarray | None:
-    """The line (homogeneous) through the points where profiles leaving one side of the character core outwards
-    first leave the plate's colour (the intensity passes `level` away from the plate's side after being on it),
-    interpolated between samples: fitted to them on a side of `min_fitted_px` or more, else parallel to the side
-    at their median offset; None when no profile leaves the plate."""
-    direction = (end_px - start_px) / np.linalg.norm(end_px - start_px)
-    outward = np.array([direction[1], -direction[0]])  # corners clockwise on screen: the right-hand normal points out
-    samples = max(3, int(np.linalg.norm(end_px - start_px)))
-    centres = start_px + np.linspace(0.1, 0.9, samples)[:, None] * (end_px - start_px)
-    offsets = np.arange(-1.0, reach_px + 0.125, 0.25)
-    points = centres[:, None, :] + offsets[None, :, None] * outward
-    profiles = map_coordinates(grey, [points[..., 1], points[..., 0]], order=1, mode="nearest") - level
-    found = []
-    for centre, profile in zip(centres, profiles if plate_above else -profiles):
-        leaving = np.flatnonzero((profile[:-1] >= 0) & (profile[1:] < 0))
-        if len(leaving) == 0:
-            continue
-        i = leaving[0]
-        found.append((centre, offsets[i] + profile[i] / (profile[i] - profile[i + 1]) * (offsets[i + 1] - offsets[i])))
-    if not found:
-        return None
-    if np.linalg.norm(end_px - start_px) < min_fitted_px or len(found) < 3:
-        through = start_px + float(np.median([offset for _, offset in found])) * outward
-        return np.array([outward[0], outward[1], -outward @ through])
-    points = np.array([centre + offset * outward for centre, offset in found])
-    mean = points.mean(axis=0)
-    normal = np.linalg.svd(points - mean)[2][1]
-    return np.array([normal[0], normal[1], -normal @ mean])
-
-
-def plate_corners(
-    grey: np.ndarray, blob: np.ndarray, colour: np.ndarray, rough_px: np.ndarray, reach_fraction: float,
-    min_fitted_px: float,
-) -> np.ndarray:
-    """The plate's corners from its edges found outwards from the characters; a side not found keeps the blob's,
-    and corners that stray from the blob's by more than the plate's height fall back to the blob's."""
-    core = character_core(blob, colour)
-    plate_level, characters_level = np.median(grey[blob & colour]), np.median(grey[blob & ~colour])
-    if core is None or plate_level == characters_level:
-        return rough_px
-    reach_px = reach_fraction * np.linalg.norm(core[3] - core[0])
-    level = (plate_level + characters_level) / 2
-    lines = []
-    for k in range(4):
-        line = edge_outwards(grey, core[k], core[(k + 1) % 4], level, plate_level > characters_level,
-                             reach_px if k % 2 == 0 else 2 * reach_px, min_fitted_px)
-        lines.append(line if line is not None else np.cross([*rough_px[k], 1.0], [*rough_px[(k + 1) % 4], 1.0]))
-    corners = np.array([np.cross(lines[k - 1], lines[k]) for k in range(4)])
-    if np.any(np.abs(corners[:, 2]) < 1e-12):
-        return rough_px
-    corners = corners[:, :2] / corners[:, 2:]
-    stray_px = np.linalg.norm(rough_px[3] - rough_px[0])
-    return corners if np.max(np.linalg.norm(corners - rough_px, axis=1)) <= stray_px else rough_px
+    if not low <= characters <= high or crossings < params.min_crossings:
+        return 0.0
+    return sides_found / 4 * min(1.0, crossings / params.expected_crossings)
 
 
 def line_through(a_px: np.ndarray, b_px: np.ndarray, inside_px: np.ndarray) -> np.ndarray:
@@ -222,22 +262,33 @@ def line_through(a_px: np.ndarray, b_px: np.ndarray, inside_px: np.ndarray) -> n
 def detect_plate(
     roi_bgr: np.ndarray, mask: np.ndarray, offset_px: np.ndarray, params: PlateParams
 ) -> Plate | None:
-    """The most plate-like blob of the vehicle's ROI, or None when no blob scores `min_score`.
+    """The best-scoring plate of the vehicle's ROI, or None when none scores `min_score`.
 
     `roi_bgr`: the ROI crop (uint8 BGR); `mask`: its foreground (bool); `offset_px`: the ROI's top-left in the
     frame (x, y)."""
     grey = cv2.cvtColor(roi_bgr, cv2.COLOR_BGR2GRAY).astype(np.float32)
-    mask = np.asarray(mask, dtype=bool)
-    colour, seeds = (m & mask for m in plate_colour_masks(roi_bgr, params))
-    best: tuple[np.ndarray, float, np.ndarray] | None = None
+    _, seeds = plate_colour_masks(roi_bgr, params)
+    seeds &= np.asarray(mask, dtype=bool)
+    best: tuple[float, np.ndarray] | None = None
     for blob in filled_blobs(seeds, params.close_px):
-        shape = plate_shape(blob, seeds, grey, params, roi_bgr.shape[1])
-        if shape is not None and shape[1] >= params.min_score and (best is None or shape[1] > best[1]):
-            best = (*shape, blob)
+        for row in character_rows(blob & ~seeds, params.min_characters, params.run_together_aspect):
+            core = core_corners(row)
+            if character_height_fraction(row, core) < params.min_character_height_fraction:
+                continue
+            near = cv2.dilate(row.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool) & blob & seeds
+            if not near.any():
+                continue
+            plate_level, characters_level = float(np.median(grey[near])), float(np.median(grey[row]))
+            found = plate_corners(grey, core, (plate_level + characters_level) / 2,
+                                  plate_level > characters_level, params)
+            if found is None:
+                continue
+            score = plate_score(grey, seeds, *found, params, roi_bgr.shape[1])
+            if score >= params.min_score and (best is None or score > best[0]):
+                best = (score, found[0])
     if best is None:
         return None
-    rough, score, blob = best
-    corners = plate_corners(grey, blob, seeds, rough, params.edge_reach_fraction, params.min_fitted_side_px)
+    score, corners = best
     corners = corners + np.asarray(offset_px, dtype=float)
     diagonals = np.cross(np.cross([*corners[0], 1.0], [*corners[2], 1.0]),
                          np.cross([*corners[1], 1.0], [*corners[3], 1.0]))
@@ -247,5 +298,5 @@ def detect_plate(
         centre_px=centre,
         upper_line_px=line_through(corners[0], corners[1], centre),
         lower_line_px=line_through(corners[3], corners[2], centre),
-        score=score,
+        score=float(score),
     )
