@@ -1,19 +1,27 @@
 """Footprint lines of a vehicle (paper, Sec. II-E): the side line l_S and the front line l_F on the road.
 
-The body's straight edges (`body_lines`) are grouped by the road direction they imply, not by their
-angle in the image. A horizontal 3D line at any height maps through the inverse road homography to a
-road line of the same direction (the map from the plane Z = h to the road, through the camera, is a
-scaling about the camera's foot point), so every segment gives a road direction. A vertical edge maps
-to a road line through the camera's foot point; segments whose road line passes that close to the foot
-point are taken as vertical (or too foreshortened to tell) and dropped. The remaining directions have
-two modes 90 deg apart, the car's length and width axes, found together as one direction modulo 90 deg.
-The axis whose segments span more than any vehicle is wide is the length axis; when neither does, the
-car is seen end-on and the axis with the longer span is its width.
+The body's straight edges (`body_lines`) are grouped by the road direction they imply, not by their angle in
+the image. A horizontal 3D line at any height maps through the inverse road homography to a road line of the
+same direction (the map from the plane Z = h to the road, through the camera, is a scaling about the camera's
+foot point), so every segment gives a road direction. A vertical edge maps to a road line through the foot
+point; segments whose road line passes that close to it are taken as vertical (or too foreshortened to tell)
+and dropped. The remaining directions have two modes 90 deg apart, the car's length and width axes, found
+together as one direction modulo 90 deg.
 
-Each footprint line is the road line of its direction tangent to the silhouette on the camera's side:
-every silhouette pixel maps through the inverse homography to a road point inside the car's ground
-outline or beyond it, away from the camera, where the face it lies on is turned to the camera, so the
-tangent touches where the car meets the ground (tyres, bumper bottoms).
+The silhouette is mapped to the road too, every pixel as if it lay on it: a point of the car at some height
+lands beyond its foot, away from the camera, so on a face turned to the camera nothing lands outside the car's
+ground outline, and the edges of the hull of these road points that face the camera are the bottom edges of
+those faces, touching where the car meets the ground (a side from tyre to tyre, an end along its bumper's
+bottom). They vote for the axes with the segments, and the one seen longest in the image near an axis sets the
+direction (segments on sloping beltlines do not). A bottom edge as long as a side from tyre to tyre marks the
+length axis; an end's alone means an end-on view and the width axis; without either, an extent across the line
+of sight longer than any vehicle is wide is the length.
+
+Each footprint line is the road line of its axis tangent to the silhouette's road points on the camera's side:
+on l_S that is the tyres' outer faces, within a few centimetres of the side. On l_F, where the end's overhang
+stands above the road, it is the image of the end's bottom edge: at its height h the tangent lies beyond the
+true end by h * d / (camera height - h) on the road, d the distance from the camera's foot (a few hundred mm
+for a bumper seen from a few metres); the line's direction is the end's.
 """
 
 from __future__ import annotations
@@ -38,6 +46,7 @@ class FootprintParams:
     direction_bandwidth_deg: float
     group_tolerance_deg: float
     hull_tolerance_deg: float
+    hull_weight: float
     min_side_mm: float
     max_width_mm: float
 
@@ -188,7 +197,6 @@ def detect_footprint(
     weights = np.hypot(segments[:, 2] - segments[:, 0], segments[:, 3] - segments[:, 1])
     quality = float(np.abs(np.sum(weights[usable] * np.exp(1j * np.radians(4.0 * direction_deg[usable]))))
                     / weights[usable].sum())
-    axis_deg = axes_modulo_90_deg(direction_deg[usable], weights[usable], params.direction_bandwidth_deg)
 
     outline_mm = road_to_image.inverse(outline_corners_px(mask, offset_px))
     outline_mm = outline_mm[np.all(np.isfinite(outline_mm), axis=1)]
@@ -198,6 +206,9 @@ def detect_footprint(
     edge_deg = road_direction_deg(starts, ends)
     edge_mm = np.linalg.norm(ends - starts, axis=1)
     edge_px = np.linalg.norm(road_to_image(ends) - road_to_image(starts), axis=1)
+    axis_deg = axes_modulo_90_deg(np.concatenate([direction_deg[usable], edge_deg]),
+                                  np.concatenate([weights[usable], params.hull_weight * edge_px]),
+                                  params.direction_bandwidth_deg)
     on_axis = [angle_difference_deg(edge_deg, axis_deg + a, 180.0) <= params.hull_tolerance_deg for a in (0.0, 90.0)]
     longest_mm = [float(edge_mm[m].max(initial=0.0)) for m in on_axis]
     if max(longest_mm) >= params.min_side_mm:  # a side seen from tyre to tyre

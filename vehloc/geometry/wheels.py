@@ -37,6 +37,7 @@ class WheelParams:
     min_ellipse_overlap: float
     tyre_to_rim_range: tuple[float, float]
     min_dark_tyre: float
+    tyre_diameter_range_mm: tuple[float, float]
     tyre_width_mm: float
     max_wheels: int
     min_score: float
@@ -182,6 +183,20 @@ def conic_crossings(conic: np.ndarray, point_px: np.ndarray, direction: np.ndarr
     return roots[np.isreal(roots)].real
 
 
+def tyre_diameter_mm(
+    tyre: Ellipse, vertical_vp: np.ndarray, centre_px: np.ndarray, road_to_image: ProjectiveTransform
+) -> float:
+    """The length on the road (mm) of the tyre's horizontal diameter, its ends mapped as if they lay on the road:
+    the diameter itself, lengthened by the camera height / (camera height - wheel radius), a few per cent."""
+    horizontal = tyre.conic @ vertical_vp
+    direction = np.array([horizontal[1], -horizontal[0]]) / np.hypot(horizontal[0], horizontal[1])
+    ends = centre_px + conic_crossings(tyre.conic, centre_px, direction)[:, None] * direction
+    if len(ends) != 2:
+        return 0.0
+    ends_mm = road_to_image.inverse(ends)
+    return float(np.linalg.norm(ends_mm[1] - ends_mm[0])) if np.all(np.isfinite(ends_mm)) else 0.0
+
+
 def detect_wheels(
     roi_bgr: np.ndarray,
     mask: np.ndarray,
@@ -219,7 +234,9 @@ def detect_wheels(
         tyre = centre - offset + np.linspace(rim_bottom_px, reach, 8)[1:-1, None] * direction
         tyre_dark = float(map_coordinates(dark.astype(np.float32), [tyre[:, 1], tyre[:, 0]], order=0).mean())
         score = overlap * tyre_dark
-        if tyre_dark >= params.min_dark_tyre and score >= params.min_score:
+        diameter_mm = tyre_diameter_mm(rim.scaled(reach / rim_bottom_px), vertical_vp, centre, road_to_image)
+        low_mm, high_mm = params.tyre_diameter_range_mm
+        if tyre_dark >= params.min_dark_tyre and score >= params.min_score and low_mm <= diameter_mm <= high_mm:
             found.append((score, rim, centre + reach * direction, reach / rim_bottom_px, line, horizontal_vp))
     if not found:
         return None
