@@ -56,9 +56,9 @@ def nearest_centre(samples: np.ndarray, centres: np.ndarray) -> np.ndarray:
     return np.argmin(((samples[:, None, :] - centres[None, :, :]) ** 2).sum(axis=2), axis=1)
 
 
-def colour_clusters(roi_bgr: np.ndarray, mask: np.ndarray, params: BodyLineParams) -> tuple[np.ndarray, np.ndarray]:
-    """Cluster label (H, W) of every pixel after the majority filter (the background is label K) and the
-    ROI painted with its clusters' Lab colours (uint8, OpenCV's 8-bit Lab)."""
+def colour_clusters(roi_bgr: np.ndarray, mask: np.ndarray, params: BodyLineParams) -> np.ndarray:
+    """The ROI painted with its clusters' colours (uint8, OpenCV's 8-bit Lab) after the majority filter over the
+    cluster labels; the background in its median colour."""
     lab = cv2.cvtColor(roi_bgr, cv2.COLOR_BGR2LAB)
     inside = lab[mask].astype(np.float32)
     stride = max(1, len(inside) // params.cluster_sample_px)
@@ -71,7 +71,7 @@ def colour_clusters(roi_bgr: np.ndarray, mask: np.ndarray, params: BodyLineParam
     labels = np.where(mask, np.argmax(votes[:-1], axis=0), len(centres))
     background = np.median(lab[~mask], axis=0) if (~mask).any() else np.zeros(3)
     palette = np.vstack([centres, background]).round().clip(0, 255).astype(np.uint8)
-    return labels, palette[labels]
+    return palette[labels]
 
 
 def body_segments_px(
@@ -79,7 +79,7 @@ def body_segments_px(
 ) -> np.ndarray:
     """Straight edge segments (N, 4) `x1 y1 x2 y2` of the body in frame px: Canny on the colour
     clusters, then `cv2.HoughLinesP`; only edges on or inside the silhouette count."""
-    _, painted = colour_clusters(roi_bgr, mask, params)
+    painted = colour_clusters(roi_bgr, mask, params)
     edges = cv2.Canny(painted, params.canny_low, params.canny_high)
     edges[~cv2.dilate(mask.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)] = 0
     min_length_px = max(params.min_length_px, params.min_length_fraction * float(np.hypot(*mask.shape)))

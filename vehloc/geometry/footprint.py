@@ -64,9 +64,11 @@ class FootprintLines:
     above, in [0, 180). Segments (N, 4) `x1 y1 x2 y2` frame px: along the length axis, along the width
     axis, and those dropped as vertical edges. Lines are homogeneous (3,), `a x + b y + c = 0` with
     `a^2 + b^2 = 1` and the vehicle on the positive side: in frame px (``*_px``) and on the road in mm
-    (``*_mm``). ``side_*``: l_S, the long side at the bottom of the silhouette nearest the camera;
-    ``front_*``: l_F, the visible end (front or rear). ``*_faces_camera``: whether that face is turned to
-    the camera (otherwise it is seen edge-on or not at all, and its line is the silhouette's extreme).
+    (``*_mm``). ``side_*``: l_S, the long side at the bottom of the silhouette nearest the camera (through the
+    tyres' outer faces); ``front_*``: l_F, the visible end (front or rear), the end's bottom edge: on the road it
+    lies inside the true end by the overhang's height effect (see the module). ``*_faces_camera``: whether that
+    face is turned to the camera (otherwise it is seen edge-on or not at all, and its line is the silhouette's
+    extreme, beyond the face).
     ``quality``: how well all non-vertical segments agree with two perpendicular road directions, the
     weighted mean resultant length of four times their angles (1: all on the axes, 0: no structure).
     """
@@ -169,6 +171,25 @@ def tangent_line_mm(
     return np.array([-normal[0], -normal[1], high]), faces
 
 
+def length_axis(
+    edge_mm: np.ndarray, on_axis: list[np.ndarray], outline_mm: np.ndarray, camera_foot_mm: np.ndarray,
+    axis_deg: float, params: FootprintParams,
+) -> int:
+    """Which of the two axes (0: `axis_deg`, 1: `axis_deg` + 90) is the length axis, from the bottom edges near
+    each (`edge_mm` lengths, `on_axis` masks): one as long as a side from tyre to tyre; else the other of an
+    end's when only an end is seen; else the axis across the line of sight if the outline's extent along it
+    is more than any vehicle's width."""
+    longest_mm = [float(edge_mm[near].max(initial=0.0)) for near in on_axis]
+    if max(longest_mm) >= params.min_side_mm:
+        return int(np.argmax(longest_mm))
+    if on_axis[0].any() != on_axis[1].any():
+        return 0 if on_axis[1].any() else 1
+    to_car = outline_mm.mean(axis=0) - camera_foot_mm
+    sight_deg = np.degrees(np.arctan2(to_car[1], to_car[0]))
+    across = int(np.argmax([angle_difference_deg(sight_deg, axis_deg + a, 180.0) for a in (0.0, 90.0)]))
+    return across if extent_along_mm(outline_mm, axis_deg + 90.0 * across) > params.max_width_mm else 1 - across
+
+
 def detect_footprint(
     roi_bgr: np.ndarray,
     mask: np.ndarray,
@@ -177,7 +198,8 @@ def detect_footprint(
     camera_foot_mm: np.ndarray,
     params: FootprintParams,
 ) -> FootprintLines | None:
-    """Footprint lines of the vehicle in an ROI; None when its edges show no road direction.
+    """Footprint lines of the vehicle in an ROI; None when its edges show no road direction or its silhouette
+    does not reach below the horizon.
 
     `roi_bgr`: the ROI crop (uint8 BGR); `mask`: its foreground (bool, the vehicle's pixels); `offset_px`:
     the ROI's top-left in the frame (x, y); `road_to_image`: road mm -> frame px; `camera_foot_mm`: the
@@ -200,6 +222,8 @@ def detect_footprint(
 
     outline_mm = road_to_image.inverse(outline_corners_px(mask, offset_px))
     outline_mm = outline_mm[np.all(np.isfinite(outline_mm), axis=1)]
+    if len(outline_mm) < 3:
+        return None
     starts, ends = visible_hull_edges(outline_mm, foot)
     informative = foot_angle_deg(starts, ends, foot) >= params.vertical_max_deg
     starts, ends = starts[informative], ends[informative]
@@ -210,17 +234,7 @@ def detect_footprint(
                                   np.concatenate([weights[usable], params.hull_weight * edge_px]),
                                   params.direction_bandwidth_deg)
     on_axis = [angle_difference_deg(edge_deg, axis_deg + a, 180.0) <= params.hull_tolerance_deg for a in (0.0, 90.0)]
-    longest_mm = [float(edge_mm[m].max(initial=0.0)) for m in on_axis]
-    if max(longest_mm) >= params.min_side_mm:  # a side seen from tyre to tyre
-        length = int(np.argmax(longest_mm))
-    elif on_axis[0].any() != on_axis[1].any():  # only an end is seen: the view is end-on
-        length = 0 if on_axis[1].any() else 1
-    else:  # the extent across the line of sight: longer than any vehicle is wide, or not
-        to_car = outline_mm.mean(axis=0) - foot
-        sight_deg = np.degrees(np.arctan2(to_car[1], to_car[0]))
-        across = int(np.argmax([angle_difference_deg(sight_deg, axis_deg + a, 180.0) for a in (0.0, 90.0)]))
-        is_length = extent_along_mm(outline_mm, axis_deg + 90.0 * across) > params.max_width_mm
-        length = across if is_length else 1 - across
+    length = length_axis(edge_mm, on_axis, outline_mm, foot, axis_deg, params)
     candidates = [(edge_px[i], edge_deg[i] - 90.0 * k) for k in (0, 1) for i in np.flatnonzero(on_axis[k])]
     if candidates:  # the bottom edge seen longest in the image sets the direction
         axis_deg = max(candidates)[1]

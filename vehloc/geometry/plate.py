@@ -26,9 +26,7 @@ import numpy as np
 from scipy.ndimage import map_coordinates
 
 from vehloc.config import params_from_config
-
-PIXEL_SQUARE = np.array([[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]])
-
+from vehloc.geometry.silhouette import PIXEL_CORNERS
 
 @dataclass(frozen=True)
 class PlateParams:
@@ -150,7 +148,7 @@ def order_corners(quad_px: np.ndarray) -> np.ndarray:
 def core_corners(row: np.ndarray) -> np.ndarray:
     """Corners (ordered) of the rotated rectangle around a row's pixel squares."""
     rows, cols = np.nonzero(row)
-    squares = np.column_stack([cols, rows])[:, None, :] + PIXEL_SQUARE[None]
+    squares = np.column_stack([cols, rows])[:, None, :] + PIXEL_CORNERS[None]
     return order_corners(cv2.boxPoints(cv2.minAreaRect(squares.reshape(-1, 2).astype(np.float32))).astype(float))
 
 

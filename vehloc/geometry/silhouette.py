@@ -1,8 +1,8 @@
 """The outline of a foreground mask in continuous pixel coordinates, for tangents to a vehicle's silhouette.
 
 A mask pixel is the unit square around its centre; a pixel that is half covered or more is in the mask,
-so the true outline runs, on average, along the outer sides of the boundary pixels. The functions here
-return those sides' corners, offset into the frame."""
+so the true outline runs, on average, along the outer sides of the boundary pixels. `outline_corners_px`
+returns those sides' corners, offset into the frame."""
 
 from __future__ import annotations
 
@@ -20,9 +20,3 @@ def outline_corners_px(mask: np.ndarray, offset_px: np.ndarray) -> np.ndarray:
     centres = np.unique(np.concatenate([c.reshape(-1, 2) for c in contours]), axis=0).astype(float)
     return (centres[:, None, :] + PIXEL_CORNERS[None]).reshape(-1, 2) + np.asarray(offset_px, dtype=float)
 
-
-def lower_envelope_px(mask: np.ndarray, offset_px: np.ndarray) -> np.ndarray:
-    """Bottom edge of the lowest mask pixel of every column, as (x, y) frame px of its middle (N, 2)."""
-    columns = np.flatnonzero(mask.any(axis=0))
-    lowest = mask.shape[0] - 1 - np.argmax(mask[::-1, columns], axis=0)
-    return np.column_stack([columns, lowest + 0.5]).astype(float) + np.asarray(offset_px, dtype=float)
