@@ -33,7 +33,7 @@ def config_dir() -> Path:
 
 
 def read_config(relative_path: str) -> dict[str, Any]:
-    """One YAML file of `conf/` as plain data, e.g. `read_config("roi/default.yaml")`."""
+    """One YAML file of `conf/` as plain data, e.g. `read_config("localize/roi/default.yaml")`."""
     path = config_dir() / relative_path
     content = yaml.safe_load(path.read_text(encoding="utf-8"))
     if not isinstance(content, dict):

@@ -18,7 +18,7 @@ import numpy as np
 @dataclass(frozen=True)
 class BodyLineParams:
     """Colour clustering, Canny and Hough settings of the body-edge extraction (the `lines` section of
-    `conf/footprint/default.yaml`)."""
+    `conf/localize/footprint/default.yaml`)."""
 
     clusters: int
     cluster_sample_px: int

@@ -81,9 +81,10 @@ def summary(frame: pd.DataFrame) -> pd.DataFrame:
     worst combined with the paper's 2.5 % dimension error, and how many cases are within the paper's
     figures."""
     rows = []
-    localized = frame[frame.get("status", pd.Series(dtype=str)) == LOCALIZED] if len(frame) else frame
+    if "method" not in frame.columns:
+        return pd.DataFrame(rows)
     for method in METHODS:
-        cases = localized[(localized.get("method") == method) & (localized.get("correct") == True)]  # noqa: E712
+        cases = frame[(frame["method"] == method) & frame["correct"].astype(bool)]
         if cases.empty:
             continue
         worst = float(cases["position_err_pct"].max())

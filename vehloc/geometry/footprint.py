@@ -52,8 +52,8 @@ class FootprintParams:
 
     @classmethod
     def from_config(cls, **overrides: object) -> FootprintParams:
-        """The settings of `conf/footprint/default.yaml`, with `overrides`."""
-        return params_from_config(cls, "footprint/default.yaml", overrides)
+        """The settings of `conf/localize/footprint/default.yaml`, with `overrides`."""
+        return params_from_config(cls, "localize/footprint/default.yaml", overrides)
 
 
 @dataclass(frozen=True, eq=False)

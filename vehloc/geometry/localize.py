@@ -40,7 +40,7 @@ LOCALIZED, NOT_LOCALIZED = "localized", "not localized"
 
 @dataclass(frozen=True)
 class PipelineParams:
-    """Settings of the pipeline itself (`conf/pipeline/default.yaml`)."""
+    """Settings of the pipeline itself (`conf/localize/pipeline/default.yaml`)."""
 
     every_frame: bool
     vote_frames: int
@@ -53,8 +53,8 @@ class PipelineParams:
 
     @classmethod
     def from_config(cls, **overrides: object) -> PipelineParams:
-        """The settings of `conf/pipeline/default.yaml`, with `overrides`."""
-        return params_from_config(cls, "pipeline/default.yaml", overrides)
+        """The settings of `conf/localize/pipeline/default.yaml`, with `overrides`."""
+        return params_from_config(cls, "localize/pipeline/default.yaml", overrides)
 
 
 @dataclass(frozen=True)

@@ -50,7 +50,7 @@ def annotate(frame_bgr, record: VehicleRecord, localizer: Localizer, out_dir: Pa
             write_birds_eye(out_dir / f"{stem}_birds_eye.png", {e.method: e.box for e in record.estimates}, title)]
 
 
-@hydra.main(version_base="1.3", config_path=str(config_dir()), config_name="localize")
+@hydra.main(version_base="1.3", config_path=str(config_dir() / "localize"), config_name="localize")
 @exit_on_error("vehloc-localize")
 def main(cfg: DictConfig) -> None:
     out_dir = Path(HydraConfig.get().runtime.output_dir)

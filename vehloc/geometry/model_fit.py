@@ -23,7 +23,7 @@ SUBPIXEL_SHIFT = 4
 
 @dataclass(frozen=True)
 class FitParams:
-    """Settings of the model fit (`conf/fit/default.yaml`)."""
+    """Settings of the model fit (`conf/localize/fit/default.yaml`)."""
 
     supersample: int
     start_step_mm: float
@@ -35,8 +35,8 @@ class FitParams:
 
     @classmethod
     def from_config(cls, **overrides: object) -> FitParams:
-        """The settings of `conf/fit/default.yaml`, with `overrides`."""
-        return params_from_config(cls, "fit/default.yaml", overrides)
+        """The settings of `conf/localize/fit/default.yaml`, with `overrides`."""
+        return params_from_config(cls, "localize/fit/default.yaml", overrides)
 
 
 @dataclass(frozen=True)

@@ -53,8 +53,8 @@ class PlateParams:
 
     @classmethod
     def from_config(cls, **overrides: object) -> PlateParams:
-        """The settings of `conf/plate/default.yaml`, with `overrides`."""
-        return params_from_config(cls, "plate/default.yaml", overrides)
+        """The settings of `conf/localize/plate/default.yaml`, with `overrides`."""
+        return params_from_config(cls, "localize/plate/default.yaml", overrides)
 
 
 @dataclass(frozen=True, eq=False)

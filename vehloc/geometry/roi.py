@@ -41,8 +41,8 @@ class RoiParams:
 
     @classmethod
     def from_config(cls, **overrides: object) -> RoiParams:
-        """The settings of `conf/roi/default.yaml`, with `overrides`."""
-        return params_from_config(cls, "roi/default.yaml", overrides)
+        """The settings of `conf/localize/roi/default.yaml`, with `overrides`."""
+        return params_from_config(cls, "localize/roi/default.yaml", overrides)
 
 
 def local_correlation(image: np.ndarray, reference: np.ndarray, window_px: int) -> tuple[np.ndarray, np.ndarray]:
@@ -184,8 +184,8 @@ class TrackerParams:
 
     @classmethod
     def from_config(cls, **overrides: object) -> TrackerParams:
-        """The settings of `conf/tracker/default.yaml`, with `overrides`."""
-        return params_from_config(cls, "tracker/default.yaml", overrides)
+        """The settings of `conf/localize/tracker/default.yaml`, with `overrides`."""
+        return params_from_config(cls, "localize/tracker/default.yaml", overrides)
 
 
 class StoppedVehicleTracker:

@@ -44,8 +44,8 @@ class WheelParams:
 
     @classmethod
     def from_config(cls, **overrides: object) -> WheelParams:
-        """The settings of `conf/wheels/default.yaml`, with `overrides`."""
-        return params_from_config(cls, "wheels/default.yaml", overrides)
+        """The settings of `conf/localize/wheels/default.yaml`, with `overrides`."""
+        return params_from_config(cls, "localize/wheels/default.yaml", overrides)
 
 
 @dataclass(frozen=True, eq=False)
