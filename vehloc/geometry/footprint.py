@@ -203,7 +203,8 @@ def detect_footprint(
 
     `roi_bgr`: the ROI crop (uint8 BGR); `mask`: its foreground (bool, the vehicle's pixels); `offset_px`:
     the ROI's top-left in the frame (x, y); `road_to_image`: road mm -> frame px; `camera_foot_mm`: the
-    point of the road below the camera (`PinholeCamera.centre_mm[:2]`)."""
+    point of the road below the camera (`PinholeCamera.centre_mm[:2]`; from a calibrated homography alone, via
+    `calibration.camera_from_homography`), whose image is the vertical vanishing point."""
     mask = np.asarray(mask, dtype=bool)
     if not mask.any():
         return None

@@ -75,19 +75,19 @@ class Plate:
     score: float
 
 
-def plate_colour_masks(roi_bgr: np.ndarray, params: PlateParams) -> tuple[np.ndarray, np.ndarray]:
-    """Pixels (bool) of the plate's background colour by the HSV ranges, and those of them that also stand out
-    from their surroundings by the white top-hat (all of them with the top-hat off)."""
+def plate_coloured(roi_bgr: np.ndarray, params: PlateParams) -> np.ndarray:
+    """Pixels (bool) of the plate's background colour: in the HSV ranges and, with the top-hat on, lighter than
+    their surroundings."""
     hue, saturation, value = cv2.split(cv2.cvtColor(roi_bgr, cv2.COLOR_BGR2HSV))
     colour = np.ones(hue.shape, bool)
     for channel, (low, high) in ((hue, params.hue_range), (saturation, params.saturation_range),
                                  (value, params.value_range)):
         colour &= (channel >= low) & (channel <= high)
     if params.min_contrast <= 0:
-        return colour, colour
+        return colour
     size = max(3, int(round(params.tophat_fraction * roi_bgr.shape[1])) | 1)
     kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (size, size))
-    return colour, colour & (cv2.morphologyEx(value, cv2.MORPH_TOPHAT, kernel) >= params.min_contrast)
+    return colour & (cv2.morphologyEx(value, cv2.MORPH_TOPHAT, kernel) >= params.min_contrast)
 
 
 def filled_blobs(mask: np.ndarray, close_px: tuple[int, int]) -> list[np.ndarray]:
@@ -273,8 +273,7 @@ def detect_plate(
     `roi_bgr`: the ROI crop (uint8 BGR); `mask`: its foreground (bool); `offset_px`: the ROI's top-left in the
     frame (x, y)."""
     grey = cv2.cvtColor(roi_bgr, cv2.COLOR_BGR2GRAY).astype(np.float32)
-    _, seeds = plate_colour_masks(roi_bgr, params)
-    seeds &= np.asarray(mask, dtype=bool)
+    seeds = plate_coloured(roi_bgr, params) & np.asarray(mask, dtype=bool)
     best: tuple[float, np.ndarray] | None = None
     for blob in filled_blobs(seeds, params.close_px):
         for row in character_rows(blob & ~seeds, params.min_characters, params.run_together_aspect):

@@ -257,7 +257,8 @@ def detect_wheels(
     """The near-side wheels of the vehicle in an ROI, or None when no wheel scores `min_score`.
 
     `roi_bgr`: the ROI crop (uint8 BGR); `mask`: its foreground (bool); `offset_px`: the ROI's top-left in the
-    frame (x, y); `road_to_image`: road mm -> frame px; `camera_foot_mm`: the road point below the camera;
+    frame (x, y); `road_to_image`: road mm -> frame px; `camera_foot_mm`: the road point below the camera
+    (`PinholeCamera.centre_mm[:2]`), whose image is the vertical vanishing point;
     `side_line_px`: l_S (homogeneous, frame px) when known."""
     mask = np.asarray(mask, dtype=bool)
     if not mask.any():
