@@ -240,8 +240,8 @@ def detect_footprint(
     if candidates:  # the bottom edge seen longest in the image sets the direction
         axis_deg = max(candidates)[1]
     length_heading_deg = float((axis_deg + 90.0 * length) % 180.0)
-    groups = [usable & (angle_difference_deg(direction_deg, length_heading_deg + a, 180.0) <= params.group_tolerance_deg)
-              for a in (0.0, 90.0)]
+    groups = [usable & (angle_difference_deg(direction_deg, length_heading_deg + a, 180.0)
+                        <= params.group_tolerance_deg) for a in (0.0, 90.0)]
 
     side_mm, side_faces = tangent_line_mm(outline_mm, length_heading_deg, foot)
     front_mm, front_faces = tangent_line_mm(outline_mm, length_heading_deg + 90.0, foot)

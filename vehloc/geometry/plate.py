@@ -188,7 +188,8 @@ def edge_outwards(
         leaving = np.flatnonzero((profile[:-1] >= 0) & (profile[1:] < 0))
         if len(leaving):
             i = leaving[0]
-            found.append((centre, offsets[i] + profile[i] / (profile[i] - profile[i + 1]) * (offsets[i + 1] - offsets[i])))
+            fraction = profile[i] / (profile[i] - profile[i + 1])
+            found.append((centre, offsets[i] + fraction * (offsets[i + 1] - offsets[i])))
     if 2 * len(found) < samples:
         return None
     points = np.array([centre + offset * outward for centre, offset in found])
