@@ -14,7 +14,7 @@ import numpy as np
 from vehloc.config import read_config
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.synth.catalog import model_by_id
-from vehloc.synth.render import CarPose, CarRender, Lighting, render_car
+from vehloc.synth.render import CarPose, CarRender, Lighting, PlateTruth, render_car
 from vehloc.synth.road import RoadLayout, render_road
 
 TABLE2_POSES = ("table2_close_0", "table2_close_30", "table2_close_minus30",
@@ -87,7 +87,7 @@ class Case:
         c = self.render.footprint_corners_mm[:, :2]  # front-left, front-right, rear-right, rear-left
         return {"left": c[[0, 3]], "right": c[[1, 2]], "front": c[[0, 1]], "rear": c[[3, 2]]}
 
-    def facing_plate(self):
+    def facing_plate(self) -> PlateTruth | None:
         """The plate turned to the camera, or None."""
         return next((plate for plate in self.render.plates.values() if plate.faces_camera), None)
 

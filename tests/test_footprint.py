@@ -45,7 +45,8 @@ def test_a_horizontal_line_at_any_height_maps_to_a_road_line_of_its_direction():
     for height_mm in (300.0, 900.0, 1500.0):
         ends = np.array([[-800.0, 9000.0, height_mm], [1500.0, 9800.0, height_mm]])
         on_road = to_road(camera.project(ends))
-        assert road_direction_deg(on_road[:1], on_road[1:])[0] == pytest.approx(np.degrees(np.arctan2(800, 2300)), abs=1e-6)
+        direction_deg = road_direction_deg(on_road[:1], on_road[1:])[0]
+        assert direction_deg == pytest.approx(np.degrees(np.arctan2(800, 2300)), abs=1e-6)
     pillar = to_road(camera.project(np.array([[700.0, 8000.0, 200.0], [700.0, 8000.0, 1400.0]])))
     assert foot_angle_deg(pillar[:1], pillar[1:], camera.centre_mm[:2])[0] < 1e-6
 

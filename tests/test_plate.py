@@ -92,8 +92,9 @@ def test_a_mask_a_pixel_off_does_not_move_the_plate(degrade, pose):
 def test_blue_plates_with_white_characters_by_another_colour_rule(monkeypatch, pose):
     """Plates repainted blue with white characters and border, found by the blue rule of conf/plate (hue 100-124,
     saturated, top-hat off): P within 2 px (measured: 0.9 px); the light rule finds none there."""
-    monkeypatch.setitem(render_module._FINISHES, Material.PLATE, render_module._Finish((20, 60, 170), emissive=0.45))
-    monkeypatch.setitem(render_module._FINISHES, Material.PLATE_INK, render_module._Finish((235, 235, 235), emissive=0.3))
+    finishes, finish = render_module._FINISHES, render_module._Finish
+    monkeypatch.setitem(finishes, Material.PLATE, finish((20, 60, 170), emissive=0.45))
+    monkeypatch.setitem(finishes, Material.PLATE_INK, finish((235, 235, 235), emissive=0.3))
     case = render_case(SILVER, pose)
     plate = plate_of(case, BLUE_PLATES)
     assert plate is not None and np.linalg.norm(plate.centre_px - true_centre_px(case)) <= 2.0

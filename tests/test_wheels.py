@@ -115,4 +115,5 @@ def test_no_wheels_in_an_empty_mask():
 
 
 def test_params_come_from_the_config_with_overrides():
-    assert PARAMS.max_wheels == 2 and WheelParams.from_config(tyre_width_mm=200.0).tyre_width_mm == 200.0
+    assert PARAMS.wheelbase_range_mm[0] < 2300 < PARAMS.wheelbase_range_mm[1]
+    assert WheelParams.from_config(tyre_width_mm=200.0).tyre_width_mm == 200.0

@@ -203,7 +203,8 @@ def detect_footprint(
 
     `roi_bgr`: the ROI crop (uint8 BGR); `mask`: its foreground (bool, the vehicle's pixels); `offset_px`:
     the ROI's top-left in the frame (x, y); `road_to_image`: road mm -> frame px; `camera_foot_mm`: the
-    point of the road below the camera (`PinholeCamera.centre_mm[:2]`)."""
+    point of the road below the camera (`PinholeCamera.centre_mm[:2]`; from a calibrated homography alone, via
+    `calibration.camera_from_homography`), whose image is the vertical vanishing point."""
     mask = np.asarray(mask, dtype=bool)
     if not mask.any():
         return None
@@ -239,8 +240,8 @@ def detect_footprint(
     if candidates:  # the bottom edge seen longest in the image sets the direction
         axis_deg = max(candidates)[1]
     length_heading_deg = float((axis_deg + 90.0 * length) % 180.0)
-    groups = [usable & (angle_difference_deg(direction_deg, length_heading_deg + a, 180.0) <= params.group_tolerance_deg)
-              for a in (0.0, 90.0)]
+    groups = [usable & (angle_difference_deg(direction_deg, length_heading_deg + a, 180.0)
+                        <= params.group_tolerance_deg) for a in (0.0, 90.0)]
 
     side_mm, side_faces = tangent_line_mm(outline_mm, length_heading_deg, foot)
     front_mm, front_faces = tangent_line_mm(outline_mm, length_heading_deg + 90.0, foot)

@@ -43,6 +43,7 @@ class PlateParams:
     min_character_height_fraction: float
     edge_reach_fraction: float
     min_fitted_side_px: float
+    max_side_residual_px: float
     min_width_px: float
     max_width_fraction: float
     aspect_range: tuple[float, float]
@@ -74,19 +75,19 @@ class Plate:
     score: float
 
 
-def plate_colour_masks(roi_bgr: np.ndarray, params: PlateParams) -> tuple[np.ndarray, np.ndarray]:
-    """Pixels (bool) of the plate's background colour by the HSV ranges, and those of them that also stand out
-    from their surroundings by the white top-hat (all of them with the top-hat off)."""
+def plate_coloured(roi_bgr: np.ndarray, params: PlateParams) -> np.ndarray:
+    """Pixels (bool) of the plate's background colour: in the HSV ranges and, with the top-hat on, lighter than
+    their surroundings."""
     hue, saturation, value = cv2.split(cv2.cvtColor(roi_bgr, cv2.COLOR_BGR2HSV))
     colour = np.ones(hue.shape, bool)
     for channel, (low, high) in ((hue, params.hue_range), (saturation, params.saturation_range),
                                  (value, params.value_range)):
         colour &= (channel >= low) & (channel <= high)
     if params.min_contrast <= 0:
-        return colour, colour
+        return colour
     size = max(3, int(round(params.tophat_fraction * roi_bgr.shape[1])) | 1)
     kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (size, size))
-    return colour, colour & (cv2.morphologyEx(value, cv2.MORPH_TOPHAT, kernel) >= params.min_contrast)
+    return colour & (cv2.morphologyEx(value, cv2.MORPH_TOPHAT, kernel) >= params.min_contrast)
 
 
 def filled_blobs(mask: np.ndarray, close_px: tuple[int, int]) -> list[np.ndarray]:
@@ -169,11 +170,12 @@ def character_height_fraction(row: np.ndarray, core: np.ndarray) -> float:
 def edge_outwards(
     grey: np.ndarray, start_px: np.ndarray, end_px: np.ndarray, level: float, plate_above: bool, reach_px: float,
     min_fitted_px: float,
-) -> np.ndarray | None:
-    """The line (homogeneous) through the points where profiles leaving one side of the character core outwards
-    first leave the plate's colour (the intensity passes `level` away from the plate's side after being on it),
-    interpolated between samples: fitted to them on a side of `min_fitted_px` or more, else parallel to the side
-    at their median offset; None when fewer than half the profiles leave the plate."""
+) -> tuple[np.ndarray, float] | None:
+    """The line (homogeneous, unit normal) through the points where profiles leaving one side of the character
+    core outwards first leave the plate's colour (the intensity passes `level` away from the plate's side after
+    being on it), interpolated between samples: fitted to them on a side of `min_fitted_px` or more, else parallel
+    to the side at their median offset; and the median distance (px) of the points from it. None when fewer than
+    half the profiles leave the plate."""
     direction = (end_px - start_px) / np.linalg.norm(end_px - start_px)
     outward = np.array([direction[1], -direction[0]])  # corners clockwise on screen: the right-hand normal points out
     samples = max(3, int(np.linalg.norm(end_px - start_px)))
@@ -186,31 +188,38 @@ def edge_outwards(
         leaving = np.flatnonzero((profile[:-1] >= 0) & (profile[1:] < 0))
         if len(leaving):
             i = leaving[0]
-            found.append((centre, offsets[i] + profile[i] / (profile[i] - profile[i + 1]) * (offsets[i + 1] - offsets[i])))
+            fraction = profile[i] / (profile[i] - profile[i + 1])
+            found.append((centre, offsets[i] + fraction * (offsets[i + 1] - offsets[i])))
     if 2 * len(found) < samples:
         return None
+    points = np.array([centre + offset * outward for centre, offset in found])
     if np.linalg.norm(end_px - start_px) < min_fitted_px or len(found) < 3:
         through = start_px + float(np.median([offset for _, offset in found])) * outward
-        return np.array([outward[0], outward[1], -outward @ through])
-    points = np.array([centre + offset * outward for centre, offset in found])
-    mean = points.mean(axis=0)
-    normal = np.linalg.svd(points - mean)[2][1]
-    return np.array([normal[0], normal[1], -normal @ mean])
+        line = np.array([outward[0], outward[1], -outward @ through])
+    else:
+        mean = points.mean(axis=0)
+        normal = np.linalg.svd(points - mean)[2][1]
+        line = np.array([normal[0], normal[1], -normal @ mean])
+    return line, float(np.median(np.abs(points @ line[:2] + line[2])))
 
 
 def plate_corners(
     grey: np.ndarray, core: np.ndarray, level: float, plate_above: bool, params: PlateParams
 ) -> tuple[np.ndarray, int] | None:
     """The plate's corners around a character core, from its four sides found outwards on the image edges (a side
-    not found stays on the core), and how many sides were found; None when the sides do not meet."""
+    not found stays on the core), and how many sides were found; None when the top or the bottom edge is not
+    straight (its points stray from its line by more than `max_side_residual_px`, median: a round rim, not a
+    plate) or the sides do not meet."""
     reach_px = params.edge_reach_fraction * np.linalg.norm(core[3] - core[0])
     lines, found = [], 0
     for k in range(4):
         start, end = core[k], core[(k + 1) % 4]
-        line = edge_outwards(grey, start, end, level, plate_above, reach_px if k % 2 == 0 else 2 * reach_px,
+        edge = edge_outwards(grey, start, end, level, plate_above, reach_px if k % 2 == 0 else 2 * reach_px,
                              params.min_fitted_side_px)
-        found += line is not None
-        lines.append(line if line is not None else np.cross([*start, 1.0], [*end, 1.0]))
+        if k % 2 == 0 and edge is not None and edge[1] > params.max_side_residual_px:
+            return None
+        found += edge is not None
+        lines.append(edge[0] if edge is not None else np.cross([*start, 1.0], [*end, 1.0]))
     corners = np.array([np.cross(lines[k - 1], lines[k]) for k in range(4)])
     if np.any(np.abs(corners[:, 2]) < 1e-12):
         return None
@@ -265,8 +274,7 @@ def detect_plate(
     `roi_bgr`: the ROI crop (uint8 BGR); `mask`: its foreground (bool); `offset_px`: the ROI's top-left in the
     frame (x, y)."""
     grey = cv2.cvtColor(roi_bgr, cv2.COLOR_BGR2GRAY).astype(np.float32)
-    _, seeds = plate_colour_masks(roi_bgr, params)
-    seeds &= np.asarray(mask, dtype=bool)
+    seeds = plate_coloured(roi_bgr, params) & np.asarray(mask, dtype=bool)
     best: tuple[float, np.ndarray] | None = None
     for blob in filled_blobs(seeds, params.close_px):
         for row in character_rows(blob & ~seeds, params.min_characters, params.run_together_aspect):

@@ -10,7 +10,8 @@ the wheel's horizontal diameter, which meets the horizon in the vanishing point 
 polar of that point is its vertical diameter, through the centre and the bottom of the tyre, which is
 concentric with the rim. Where the vertical diameter leaves the silhouette, the tyre's outer face touches
 the road; the tyre's contact (the middle of its tread) lies half a tyre width further in, across the wheel's
-plane on the road, away from the camera.
+plane on the road, away from the camera. Of the wheels found, the best pair a wheelbase apart on a line along
+both wheels' planes is kept (a lone wheel otherwise).
 """
 
 from __future__ import annotations
@@ -39,7 +40,8 @@ class WheelParams:
     min_dark_tyre: float
     tyre_diameter_range_mm: tuple[float, float]
     tyre_width_mm: float
-    max_wheels: int
+    wheelbase_range_mm: tuple[float, float]
+    pair_tolerance_deg: float
     min_score: float
 
     @classmethod
@@ -197,6 +199,52 @@ def tyre_diameter_mm(
     return float(np.linalg.norm(ends_mm[1] - ends_mm[0])) if np.all(np.isfinite(ends_mm)) else 0.0
 
 
+def measure_wheel(
+    rim: Ellipse, overlap: float, dark: np.ndarray, mask: np.ndarray, offset_px: np.ndarray, vertical_vp: np.ndarray,
+    horizon: np.ndarray, road_to_image: ProjectiveTransform, params: WheelParams,
+) -> tuple[float, Ellipse, np.ndarray, float, np.ndarray, np.ndarray] | None:
+    """A rim (frame px) measured as a wheel: its score, the rim, the outer contact (frame px), the tyre's scale
+    from the rim, the vertical diameter and the horizontal vanishing point (homogeneous); None when the ground is
+    not a tyre's depth below the rim, the tyre between them is not dark, or the tyre is not wheel-sized."""
+    line, horizontal_vp = vertical_diameter(rim, vertical_vp, horizon)
+    line = line / np.hypot(line[0], line[1])
+    direction = np.array([line[1], -line[0]]) * (1.0 if -line[0] >= 0 else -1.0)  # down the image
+    centre = rim.centre_px - (line[:2] @ rim.centre_px + line[2]) * line[:2]  # on the vertical diameter
+    rim_bottom_px = float(conic_crossings(rim.conic, centre, direction).max(initial=0.0))
+    low, high = params.tyre_to_rim_range
+    reach = ground_crossing_px(mask, centre - offset_px, direction, high * rim_bottom_px + 2.0)
+    if rim_bottom_px <= 0 or reach is None or not low * rim_bottom_px <= reach <= high * rim_bottom_px:
+        return None
+    tyre = centre - offset_px + np.linspace(rim_bottom_px, reach, 8)[1:-1, None] * direction
+    tyre_dark = float(map_coordinates(dark.astype(np.float32), [tyre[:, 1], tyre[:, 0]], order=0).mean())
+    score = overlap * tyre_dark
+    diameter_mm = tyre_diameter_mm(rim.scaled(reach / rim_bottom_px), vertical_vp, centre, road_to_image)
+    low_mm, high_mm = params.tyre_diameter_range_mm
+    if tyre_dark < params.min_dark_tyre or score < params.min_score or not low_mm <= diameter_mm <= high_mm:
+        return None
+    return score, rim, centre + reach * direction, reach / rim_bottom_px, line, horizontal_vp
+
+
+def wheel_pair(
+    outer_mm: np.ndarray, plane_directions_mm: np.ndarray, scores: np.ndarray, params: WheelParams
+) -> list[int]:
+    """The indices of the best-scoring pair of wheels of one side (a wheelbase apart on the road, on a line along
+    both wheels' planes within `pair_tolerance_deg`), left as found; the best wheel alone when no pair is."""
+    def angle_deg(a: np.ndarray, b: np.ndarray) -> float:
+        return float(np.degrees(np.arccos(min(1.0, abs(a @ b) / (np.linalg.norm(a) * np.linalg.norm(b))))))
+
+    low, high = params.wheelbase_range_mm
+    best: tuple[float, list[int]] = (float(scores.max()), [int(np.argmax(scores))])
+    for i in range(len(scores)):
+        for j in range(i + 1, len(scores)):
+            between = outer_mm[j] - outer_mm[i]
+            if (low <= np.linalg.norm(between) <= high
+                    and max(angle_deg(between, plane_directions_mm[i]), angle_deg(between, plane_directions_mm[j]))
+                    <= params.pair_tolerance_deg and scores[i] + scores[j] > best[0]):
+                best = (float(scores[i] + scores[j]), [i, j])
+    return best[1]
+
+
 def detect_wheels(
     roi_bgr: np.ndarray,
     mask: np.ndarray,
@@ -209,7 +257,8 @@ def detect_wheels(
     """The near-side wheels of the vehicle in an ROI, or None when no wheel scores `min_score`.
 
     `roi_bgr`: the ROI crop (uint8 BGR); `mask`: its foreground (bool); `offset_px`: the ROI's top-left in the
-    frame (x, y); `road_to_image`: road mm -> frame px; `camera_foot_mm`: the road point below the camera;
+    frame (x, y); `road_to_image`: road mm -> frame px; `camera_foot_mm`: the road point below the camera
+    (`PinholeCamera.centre_mm[:2]`), whose image is the vertical vanishing point;
     `side_line_px`: l_S (homogeneous, frame px) when known."""
     mask = np.asarray(mask, dtype=bool)
     if not mask.any():
@@ -219,34 +268,20 @@ def detect_wheels(
     vertical_vp = road_to_image.homogeneous(foot)[0]
     horizon = road_to_image.map_lines(np.array([0.0, 0.0, 1.0]))[0]
     grey = cv2.cvtColor(roi_bgr, cv2.COLOR_BGR2GRAY).astype(np.float32)
-    low, high = params.tyre_to_rim_range
-    found = []
-    for roi_rim, overlap, dark in rim_candidates(grey, mask, params):
-        rim = Ellipse(roi_rim.centre_px + offset, roi_rim.semi_axes_px, roi_rim.angle_deg)
-        line, horizontal_vp = vertical_diameter(rim, vertical_vp, horizon)
-        line = line / np.hypot(line[0], line[1])
-        direction = np.array([line[1], -line[0]]) * (1.0 if -line[0] >= 0 else -1.0)  # down the image
-        centre = rim.centre_px - (line[:2] @ rim.centre_px + line[2]) * line[:2]  # on the vertical diameter
-        rim_bottom_px = float(conic_crossings(rim.conic, centre, direction).max(initial=0.0))
-        reach = ground_crossing_px(mask, centre - offset, direction, high * rim_bottom_px + 2.0)
-        if rim_bottom_px <= 0 or reach is None or not low * rim_bottom_px <= reach <= high * rim_bottom_px:
-            continue
-        tyre = centre - offset + np.linspace(rim_bottom_px, reach, 8)[1:-1, None] * direction
-        tyre_dark = float(map_coordinates(dark.astype(np.float32), [tyre[:, 1], tyre[:, 0]], order=0).mean())
-        score = overlap * tyre_dark
-        diameter_mm = tyre_diameter_mm(rim.scaled(reach / rim_bottom_px), vertical_vp, centre, road_to_image)
-        low_mm, high_mm = params.tyre_diameter_range_mm
-        if tyre_dark >= params.min_dark_tyre and score >= params.min_score and low_mm <= diameter_mm <= high_mm:
-            found.append((score, rim, centre + reach * direction, reach / rim_bottom_px, line, horizontal_vp))
+    found = [measured for roi_rim, overlap, dark in rim_candidates(grey, mask, params)
+             if (measured := measure_wheel(Ellipse(roi_rim.centre_px + offset, roi_rim.semi_axes_px, roi_rim.angle_deg),
+                                           overlap, dark, mask, offset, vertical_vp, horizon, road_to_image, params))]
     if not found:
         return None
-    found = sorted(sorted(found, key=lambda item: -item[0])[: params.max_wheels], key=lambda item: item[2][0])
     outer_mm = road_to_image.inverse(np.array([item[2] for item in found]))
+    planes_mm = np.array([np.linalg.solve(road_to_image.matrix, item[5])[:2] for item in found])
+    keep = wheel_pair(outer_mm, planes_mm, np.array([item[0] for item in found]), params)
+    keep = sorted(keep, key=lambda i: found[i][2][0])
+    found, outer_mm, planes_mm = [found[i] for i in keep], outer_mm[keep], planes_mm[keep]
     wheels = []
-    for (score, rim, outer_px, factor, line, horizontal_vp), outer_road in zip(found, outer_mm):
+    for (score, rim, outer_px, factor, line, _), outer_road, plane_mm in zip(found, outer_mm, planes_mm):
         # the wheels' plane on the road: through both outer contacts, or towards its vanishing point
-        along = outer_mm[-1] - outer_mm[0] if len(found) == 2 else np.linalg.solve(road_to_image.matrix,
-                                                                                   horizontal_vp)[:2]
+        along = outer_mm[-1] - outer_mm[0] if len(found) == 2 else plane_mm
         inward = np.array([-along[1], along[0]]) / np.linalg.norm(along)
         inward = inward if inward @ (outer_road - foot) > 0 else -inward
         contact = road_to_image(outer_road + params.tyre_width_mm / 2 * inward)[0]
