@@ -45,8 +45,8 @@ def site() -> tuple[PinholeCamera, RoadLayout, Lighting, float]:
 
 def table2_pose(name: str) -> CarPose:
     """The car's pose of a Table 2 scene config."""
-    config = read_config(f"scene/{name}.yaml")
-    return CarPose(config["target_x_mm"], config["target_y_mm"], config["target_heading_deg"])
+    car = read_config(f"scene/{name}.yaml")["cars"][0]
+    return CarPose(car["target_x_mm"], car["target_y_mm"], car["target_heading_deg"])
 
 
 def pose_named(name: str) -> CarPose:
