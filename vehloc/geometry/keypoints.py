@@ -23,7 +23,7 @@ from vehloc.geometry.footprint import FootprintParams, detect_footprint
 from vehloc.geometry.placement import VehicleBox, direction_of, place_on_end, place_on_side
 from vehloc.geometry.plate import PlateParams, detect_plate
 from vehloc.geometry.site_calibration import CameraCalibration
-from vehloc.geometry.wheels import WheelParams, detect_wheels
+from vehloc.geometry.wheels import Wheel, WheelParams, detect_wheels
 
 C_DISTANCE_MM = 1000.0
 """How far along the reference direction the paper's point C is taken."""
@@ -82,6 +82,15 @@ def below_plate_px(calibration: CameraCalibration, plate_centre_px: np.ndarray, 
     return point[:2] / point[2]
 
 
+def tyre_position_px(wheel: Wheel) -> np.ndarray:
+    """The paper's tyre position: the wheel's crossing with the side line l_S, when that lies on the tyre
+    (within its rim radius of the tyre's contact); else the contact itself."""
+    crossing = wheel.side_crossing_px
+    if crossing is not None and np.linalg.norm(crossing - wheel.contact_px) <= wheel.rim.semi_axes_px[0]:
+        return crossing
+    return wheel.contact_px
+
+
 def paper_placement(
     roi_bgr: np.ndarray, mask: np.ndarray, roi: Box, calibration: CameraCalibration, spec: VehicleSpec,
     params: DetectorParams,
@@ -104,7 +113,7 @@ def paper_placement(
     if wheels is None or len(wheels.wheels) < 2:
         found = "one wheel" if wheels is not None else "no wheel"
         raise NotLocalized(f"neither a licence plate nor two wheels found (found {found})")
-    contacts_px = np.array([w.side_crossing_px if w.side_crossing_px is not None else w.contact_px for w in wheels.wheels])
+    contacts_px = np.array([tyre_position_px(w) for w in wheels.wheels])
     contacts_mm = road_to_image.inverse.map_visible(contacts_px, "tyre contact")
     q_mm = contacts_mm.mean(axis=0)
     into = inward(lines.length_heading_deg + 90.0, q_mm, foot)

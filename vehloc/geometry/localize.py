@@ -22,6 +22,7 @@ from vehloc.errors import VehlocError
 from vehloc.geometry.keypoints import DetectorParams, NotLocalized, paper_placement
 from vehloc.geometry.model_fit import FitParams, fit_model
 from vehloc.geometry.placement import VehicleBox, facing, heading_of
+from vehloc.geometry.projective import HorizonError
 from vehloc.geometry.roi import StoppedVehicleTracker, Track, TrackerParams, VehicleRoiExtractor, RoiParams
 from vehloc.geometry.site_calibration import CameraCalibration
 from vehloc.geometry.tracks import TrackVotes
@@ -178,7 +179,7 @@ class Localizer:
         mask = self.extractor.foreground(roi)
         try:
             placement = paper_placement(roi.crop(frame_bgr), mask, roi, self.calibration, spec, self.detectors)
-        except NotLocalized as why:
+        except (NotLocalized, HorizonError) as why:
             return VehicleRecord(**{**record.__dict__, "status": NOT_LOCALIZED, "reason": str(why)})
         travel = self.travel_heading_deg(track)
         paper_box = facing(placement.box, travel) if travel is not None else placement.box

@@ -38,6 +38,12 @@ class RoiParams:
     open_kernel_px: int
     close_kernel_px: int
     min_area_fraction: float
+    background_every_frames: int
+    silhouette_threshold: float
+    silhouette_shadow_ratio: tuple[float, float]
+    silhouette_shadow_window_px: int
+    silhouette_shadow_min_correlation: float
+    silhouette_close_px: int
 
     @classmethod
     def from_config(cls, **overrides: object) -> RoiParams:
@@ -89,6 +95,31 @@ def clean_mask(mask: np.ndarray, params: RoiParams) -> np.ndarray:
     return filled
 
 
+def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: RoiParams) -> np.ndarray:
+    """The vehicle's pixels in an ROI at full resolution, against the full-resolution background: colour
+    changed by more than `silhouette_threshold`, except cast shadow (uniformly darker by a ratio within
+    `silhouette_shadow_ratio` with the road's texture showing through), closed, holes filled, the largest
+    blob kept. A bool (H, W) mask."""
+    frame = roi_bgr.astype(np.float32)
+    background = background_bgr.astype(np.float32)
+    changed = np.abs(frame - background).max(axis=2) > params.silhouette_threshold
+    ratio = (frame.sum(axis=2) + 1.0) / (background.sum(axis=2) + 1.0)
+    low, high = params.silhouette_shadow_ratio
+    darker = (ratio >= low) & (ratio <= high)
+    grey = cv2.cvtColor(roi_bgr, cv2.COLOR_BGR2GRAY)
+    correlation, texture = local_correlation(grey, cv2.cvtColor(background_bgr, cv2.COLOR_BGR2GRAY),
+                                             params.silhouette_shadow_window_px)
+    shadow = darker & (texture >= params.shadow_min_texture) & (correlation >= params.silhouette_shadow_min_correlation)
+    mask = ((changed & ~shadow) * 255).astype(np.uint8)
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (params.silhouette_close_px,) * 2)
+    mask = cv2.morphologyEx(cv2.morphologyEx(mask, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)), cv2.MORPH_CLOSE, kernel)
+    contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    filled = np.zeros_like(mask)
+    if contours:
+        cv2.drawContours(filled, [max(contours, key=cv2.contourArea)], -1, 255, cv2.FILLED)
+    return filled > 0
+
+
 def scaled_box(box: Box, factor: float, width_px: int, height_px: int) -> Box:
     """The pixels of a box on an image scaled by `factor`: the smallest box holding them, clipped."""
     return Box(int(np.floor(box.x0 * factor)), int(np.floor(box.y0 * factor)),
@@ -120,6 +151,9 @@ class VehicleRoiExtractor:
         self.subtractor.setShadowThreshold(self.params.shadow_threshold)
         self.frames_seen = 0
         self.last_mask: np.ndarray | None = None
+        self.last_frame: np.ndarray | None = None
+        self.background: np.ndarray | None = None
+        self.background_samples = 0
 
     @property
     def ready(self) -> bool:
@@ -138,25 +172,37 @@ class VehicleRoiExtractor:
         self.last_mask = clean_mask(remove_shadows(raw, small, background, self.params), self.params)
         if not self.ready:
             return []
+        self.last_frame = frame_bgr
+        if (self.frames_seen - 1) % self.params.background_every_frames == 0:
+            self._update_background(frame_bgr)
+        if not self.ready:
+            return []
         height_px, width_px = small.shape[:2]
         boxes = blob_boxes(self.last_mask, int(self.params.min_area_fraction * width_px * height_px))
         frame_height_px, frame_width_px = frame_bgr.shape[:2]
         return [scaled_box(box, 1.0 / scale, frame_width_px, frame_height_px) for box in boxes]
 
+    def _update_background(self, frame_bgr: np.ndarray) -> None:
+        """The full-resolution background: the running mean of the sampled frames while the history is learnt,
+        then a slow update where the background model sees no vehicle."""
+        self.background_samples += 1
+        if self.background is None:
+            self.background = frame_bgr.astype(np.float32)
+            return
+        if not self.ready:
+            cv2.accumulateWeighted(frame_bgr, self.background, 1.0 / self.background_samples)
+            return
+        still = cv2.resize(self.last_mask, frame_bgr.shape[1::-1], interpolation=cv2.INTER_NEAREST) == 0
+        rate = min(1.0, self.params.learning_rate_after_history * self.params.background_every_frames)
+        cv2.accumulateWeighted(frame_bgr, self.background, rate, still.astype(np.uint8))
+
     def foreground(self, roi: Box) -> np.ndarray:
-        """The last frame's foreground inside `roi` (frame pixels), a bool (roi height, roi width) mask
-        (interpolated from the background model's resolution)."""
-        if self.last_mask is None:
+        """The last frame's vehicle pixels inside `roi` (frame pixels), at full resolution: a bool (roi height,
+        roi width) mask (see `vehicle_silhouette`)."""
+        if self.last_frame is None or self.background is None:
             raise RuntimeError("no frame has been applied yet")
-        scale = self.params.scale
-        if scale == 1.0:
-            return roi.crop(self.last_mask) > 0
-        # the pixel centres of the ROI, in the background model's pixels
-        xs = (np.arange(roi.x0, roi.x1) + 0.5) * scale - 0.5
-        ys = (np.arange(roi.y0, roi.y1) + 0.5) * scale - 0.5
-        map_x, map_y = np.meshgrid(xs.astype(np.float32), ys.astype(np.float32))
-        values = cv2.remap(self.last_mask, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-        return values >= 128
+        background = roi.crop(self.background).astype(np.uint8)
+        return vehicle_silhouette(roi.crop(self.last_frame), background, self.params)
 
 
 @dataclass
