@@ -67,9 +67,15 @@ def test_table2_poses_two_near_side_contacts_within_3_px(car, pose):
 
 @pytest.mark.parametrize("car", [SILVER, BLACK, RED_PICKUP])
 @pytest.mark.parametrize("pose", END_ON_POSES + ("far_rear_20",))
-def test_no_wheels_when_they_are_seen_end_on(car, pose):
-    """Along the road, front or rear towards the camera: the rims are seen edge-on and no wheel is reported."""
-    assert wheels_of(render_case(car, pose)) is None
+def test_no_false_wheels_when_they_are_seen_end_on(car, pose):
+    """Along the road, front or rear towards the camera, the rims are seen edge-on: no wheel is reported, or,
+    20 deg off end-on where a rim shows, only a true one (contact within 3 px)."""
+    case = render_case(car, pose)
+    wheels = wheels_of(case)
+    if pose in END_ON_POSES:
+        assert wheels is None
+    else:
+        assert wheels is None or contact_errors_px(case, wheels).max() <= 3.0
 
 
 @pytest.mark.parametrize("pose", ["far_front_20", "far_rear_30"])

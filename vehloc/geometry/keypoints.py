@@ -17,6 +17,7 @@ import numpy as np
 
 from vehloc.config import build_params
 from vehloc.data.boxes import Box
+from vehloc.data.shapes import VehicleShape
 from vehloc.data.specs import VehicleSpec
 from vehloc.errors import VehlocError
 from vehloc.geometry.footprint import FootprintParams, detect_footprint
@@ -27,6 +28,8 @@ from vehloc.geometry.wheels import Wheel, WheelParams, detect_wheels
 
 C_DISTANCE_MM = 1000.0
 """How far along the reference direction the paper's point C is taken."""
+END_DEPTH_MM = 150.0
+"""The depth of a vehicle's end face, for the height of its lowest point."""
 
 
 class NotLocalized(VehlocError):
@@ -71,12 +74,32 @@ def inward(heading_deg: float, point_mm: np.ndarray, camera_foot_mm: np.ndarray)
     return direction if direction @ (point_mm - camera_foot_mm) >= 0 else -direction
 
 
-def below_plate_px(calibration: CameraCalibration, plate_centre_px: np.ndarray, front_line_px: np.ndarray) -> np.ndarray:
-    """O: where the image of the vertical through P meets l_F (both homogeneous lines, frame px)."""
-    camera = calibration.camera
-    vertical_vanishing = camera.K @ camera.R[:, 2]
-    vertical = np.cross([*plate_centre_px, 1.0], vertical_vanishing)
-    point = np.cross(vertical, front_line_px)
+def end_bottom_height_mm(shape: VehicleShape, visible_end: str | None) -> float:
+    """How high the lowest point of the vehicle's end face stands (its bumper's lower edge): from the shape's
+    points within `END_DEPTH_MM` of that end (`front`, `rear`, or the mean of both when unknown)."""
+    points = shape.points_mm
+    heights = {}
+    for end, sign in (("front", 1.0), ("rear", -1.0)):
+        x = sign * points[:, 0]
+        heights[end] = float(points[x >= x.max() - END_DEPTH_MM, 2].min())
+    return heights[visible_end] if visible_end in heights else (heights["front"] + heights["rear"]) / 2
+
+
+def lowered_line_mm(line_mm: np.ndarray, height_mm: float, camera_centre_mm: np.ndarray) -> np.ndarray:
+    """The road line below a horizontal 3D line at `height_mm` whose image maps to the road as `line_mm` (the
+    homography takes every point of it along the camera's ray down to the road, too far by the factor
+    camera height / (camera height - height)): the line scaled about the camera's foot."""
+    k = (camera_centre_mm[2] - height_mm) / camera_centre_mm[2]
+    a, b, c = line_mm
+    at_foot = a * camera_centre_mm[0] + b * camera_centre_mm[1]
+    return np.array([a, b, k * (at_foot + c) - at_foot])
+
+
+def below_plate_mm(plate_centre_mm: np.ndarray, front_line_mm: np.ndarray, camera_foot_mm: np.ndarray) -> np.ndarray:
+    """O: where the vertical through the plate's middle P meets the front footprint line, on the road. The
+    vertical's image maps to the road as the line from the camera's foot through P's road image."""
+    vertical = np.cross([*camera_foot_mm, 1.0], [*plate_centre_mm, 1.0])
+    point = np.cross(vertical, front_line_mm)
     if abs(point[2]) < 1e-12:
         raise NotLocalized("the plate's vertical runs parallel to the front footprint line")
     return point[:2] / point[2]
@@ -93,10 +116,12 @@ def tyre_position_px(wheel: Wheel) -> np.ndarray:
 
 def paper_placement(
     roi_bgr: np.ndarray, mask: np.ndarray, roi: Box, calibration: CameraCalibration, spec: VehicleSpec,
-    params: DetectorParams,
+    shape: VehicleShape, params: DetectorParams, visible_end: str | None = None,
 ) -> Placement:
     """The paper's placement of the predicted model's box (`spec`) from the vehicle in `roi` (its crop and
-    foreground); NotLocalized saying why when the key points cannot be found."""
+    foreground); NotLocalized saying why when the key points cannot be found. The front footprint line is the
+    silhouette's lower edge at the visible end, a bumper's height above the road: it is lowered to the road
+    by that height, the predicted model's (`shape`; `visible_end` `front` or `rear` when known)."""
     road_to_image, offset = calibration.road_to_image, np.array([roi.x0, roi.y0], dtype=float)
     foot = calibration.camera.centre_mm[:2]
     lines = detect_footprint(roi_bgr, mask, offset, road_to_image, foot, params.footprint)
@@ -105,7 +130,9 @@ def paper_placement(
     length_mm, width_mm = spec.length_mm, spec.width_mm
     plate = detect_plate(roi_bgr, mask, offset, params.plate)
     if plate is not None:
-        o_mm = road_to_image.inverse.map_visible(below_plate_px(calibration, plate.centre_px, lines.front_line_px), "O")[0]
+        p_mm = road_to_image.inverse.map_visible(plate.centre_px[None], "P")[0]
+        front_line = lowered_line_mm(lines.front_line_mm, end_bottom_height_mm(shape, visible_end), calibration.camera.centre_mm)
+        o_mm = below_plate_mm(p_mm, front_line, foot)
         into = inward(lines.length_heading_deg, o_mm, foot)
         box = place_on_end(o_mm, into, length_mm, width_mm)
         return Placement(box, "plate", o_mm, o_mm + C_DISTANCE_MM * into, length_mm / 2)

@@ -164,6 +164,15 @@ class Localizer:
             return None
         return heading_of(points[-1] - points[0])
 
+    def visible_end(self, track: Track) -> str | None:
+        """`front` when the vehicle came towards the camera, `rear` when it went away, None when it did not
+        move far enough to tell."""
+        points = [p for p in self.states[track.track_id].ground_points_mm if np.all(np.isfinite(p))]
+        if len(points) < 2 or np.linalg.norm(points[-1] - points[0]) < self.params.min_travel_mm:
+            return None
+        foot = self.calibration.camera.centre_mm[:2]
+        return "front" if np.linalg.norm(points[-1] - foot) < np.linalg.norm(points[0] - foot) else "rear"
+
     def localize(self, track: Track, frame_index: int, frame_bgr: np.ndarray) -> VehicleRecord:
         """The record of one tracked vehicle at this frame."""
         box = track.box
@@ -176,9 +185,11 @@ class Localizer:
         record = VehicleRecord(track.track_id, frame_index, box, LOCALIZED, "", top1.model_id, top1.make, top1.model,
                                top1.probability, tuple(float(v) for v in spec.dims_mm))
         roi = box.enlarged(self.params.detector_roi_fraction, width_px, height_px)
-        mask = self.extractor.foreground(roi)
+        silhouette = self.extractor.foreground(roi)
         try:
-            placement = paper_placement(roi.crop(frame_bgr), mask, roi, self.calibration, spec, self.detectors)
+            placement = paper_placement(roi.crop(frame_bgr), silhouette.trimmed(), roi, self.calibration, spec,
+                                        self.classifier.metadata.shape_of(spec.model_id), self.detectors,
+                                        self.visible_end(track))
         except (NotLocalized, HorizonError) as why:
             return VehicleRecord(**{**record.__dict__, "status": NOT_LOCALIZED, "reason": str(why)})
         travel = self.travel_heading_deg(track)
@@ -186,7 +197,7 @@ class Localizer:
         estimates = [Estimate("paper", paper_box, placement.kind, self._paper_uncertainty(paper_box, placement.kind,
                                                                                          probabilities, placement.baseline_mm))]
         if self.params.fit:
-            estimates.append(self._fit(paper_box, mask, roi, probabilities, travel))
+            estimates.append(self._fit(paper_box, silhouette.weights, roi, probabilities, travel))
         return VehicleRecord(**{**record.__dict__, "estimates": tuple(estimates)})
 
     def _calibration_part(self, box: VehicleBox, baseline_mm: float) -> tuple[float, float]:
@@ -197,7 +208,7 @@ class Localizer:
         spread = dimension_spread_mm(probabilities, self.classifier.metadata.dims_mm, self.params.uncertainty_top_k)
         return Uncertainty.combined(paper_dimension_part(kind, spread), self._calibration_part(box, baseline_mm))
 
-    def _fit(self, start: VehicleBox, mask: np.ndarray, roi: Box, probabilities: np.ndarray,
+    def _fit(self, start: VehicleBox, weights: np.ndarray, roi: Box, probabilities: np.ndarray,
              travel: float | None) -> Estimate:
         """The predicted model's shape fitted from the paper's placement; its uncertainty from refitting the
         other probable models' shapes."""
@@ -208,7 +219,7 @@ class Localizer:
         for index in candidates:
             spec = metadata.classes[index]
             begin = VehicleBox(start.centre_mm, start.heading_deg, spec.length_mm, spec.width_mm)
-            fits.append(fit_model(camera, mask, roi, metadata.shape_of(spec.model_id), begin, self.fit_params))
+            fits.append(fit_model(camera, weights, roi, metadata.shape_of(spec.model_id), begin, self.fit_params))
         best = fits[0]
         box = facing(best.box, travel) if travel is not None else best.box
         dimensions = fitted_spread([f.box for f in fits], probabilities[candidates]) if len(fits) > 1 else (0.0, 0.0)

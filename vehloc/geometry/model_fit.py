@@ -1,8 +1,8 @@
 """The model fit, beyond the paper: with the full camera (K, R, t) from the calibration and the predicted
 model's shape (its convex parts, or the cuboid of its length, width and height), find the pose (x, y,
-heading) whose projected silhouette best overlaps the vehicle's foreground mask. Starts from the paper's
-placement; the overlap (IoU) is measured on a supersampled grid so that it varies smoothly enough for
-Nelder-Mead."""
+heading) whose projected silhouette best overlaps the vehicle's foreground. Starts from the paper's
+placement; the overlap is a weighted intersection over union (foreground pixels that may be shadow count
+less), measured on a supersampled grid so that it varies smoothly enough for Nelder-Mead."""
 
 from __future__ import annotations
 
@@ -72,26 +72,29 @@ def silhouette(camera: PinholeCamera, shape: VehicleShape, box: VehicleBox, roi:
     return canvas > 0
 
 
-def overlap(a: np.ndarray, b: np.ndarray) -> float:
-    """Intersection over union of two bool masks."""
-    union = np.count_nonzero(a | b)
-    return np.count_nonzero(a & b) / union if union else 0.0
+def overlap(template: np.ndarray, weights: np.ndarray) -> float:
+    """Weighted intersection over union of a bool template and foreground weights in [0, 1]: the weight the
+    template covers over the template's area plus the weight it leaves out (plain IoU for a bool mask)."""
+    covered = float(weights[template].sum())
+    union = np.count_nonzero(template) + float(weights.sum()) - covered
+    return covered / union if union else 0.0
 
 
 def fit_model(
     camera: PinholeCamera,
-    mask: np.ndarray,
+    weights: np.ndarray,
     roi: Box,
     shape: VehicleShape,
     start: VehicleBox,
     params: FitParams | None = None,
 ) -> ModelFit:
-    """The pose of `shape` (length and width as `start`'s) that best overlaps `mask`, the vehicle's foreground
-    pixels inside `roi` (a bool (roi height, roi width) array), starting from `start`."""
+    """The pose of `shape` (length and width as `start`'s) that best overlaps the vehicle's foreground inside
+    `roi`: `weights`, a (roi height, roi width) array in [0, 1] (a bool mask, or how sure each pixel is),
+    starting from `start`."""
     params = params or FitParams.from_config()
     ss = params.supersample
-    target = cv2.resize(mask.astype(np.uint8), (roi.width_px * ss, roi.height_px * ss),
-                        interpolation=cv2.INTER_NEAREST) > 0
+    target = cv2.resize(np.asarray(weights, dtype=np.float32), (roi.width_px * ss, roi.height_px * ss),
+                        interpolation=cv2.INTER_NEAREST)
 
     # Nelder-Mead stops on one tolerance for all coordinates: the heading is scaled to make it the angular one
     per_deg = params.tolerance_mm / params.tolerance_deg

@@ -44,6 +44,7 @@ class RoiParams:
     silhouette_shadow_window_px: int
     silhouette_shadow_min_correlation: float
     silhouette_close_px: int
+    silhouette_doubt_weight: float
 
     @classmethod
     def from_config(cls, **overrides: object) -> RoiParams:
@@ -95,11 +96,28 @@ def clean_mask(mask: np.ndarray, params: RoiParams) -> np.ndarray:
     return filled
 
 
-def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: RoiParams) -> np.ndarray:
+@dataclass(frozen=True, eq=False)
+class Silhouette:
+    """A vehicle's pixels in an ROI (bool mask), and how sure each is (1, or `silhouette_doubt_weight` where
+    the pixel is only darker than the road and may be shadow the texture test could not tell)."""
+
+    mask: np.ndarray
+    weights: np.ndarray
+
+    def trimmed(self, margin_px: int = 2) -> np.ndarray:
+        """The mask without the doubtful pixels below the lowest sure one of each column (a shadow under the
+        vehicle, which would otherwise pass for its bottom edge)."""
+        sure = self.weights >= 1.0
+        rows = np.arange(self.mask.shape[0])[:, None]
+        lowest = np.where(sure.any(axis=0), self.mask.shape[0] - 1 - np.argmax(sure[::-1], axis=0), -1)
+        return self.mask & (sure | (rows <= lowest[None, :] + margin_px))
+
+
+def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: RoiParams) -> Silhouette:
     """The vehicle's pixels in an ROI at full resolution, against the full-resolution background: colour
     changed by more than `silhouette_threshold`, except cast shadow (uniformly darker by a ratio within
     `silhouette_shadow_ratio` with the road's texture showing through), closed, holes filled, the largest
-    blob kept. A bool (H, W) mask."""
+    blob kept."""
     frame = roi_bgr.astype(np.float32)
     background = background_bgr.astype(np.float32)
     changed = np.abs(frame - background).max(axis=2) > params.silhouette_threshold
@@ -117,7 +135,8 @@ def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: 
     filled = np.zeros_like(mask)
     if contours:
         cv2.drawContours(filled, [max(contours, key=cv2.contourArea)], -1, 255, cv2.FILLED)
-    return filled > 0
+    vehicle = filled > 0
+    return Silhouette(vehicle, np.where(vehicle, np.where(ratio <= high, params.silhouette_doubt_weight, 1.0), 0.0))
 
 
 def scaled_box(box: Box, factor: float, width_px: int, height_px: int) -> Box:
@@ -196,9 +215,9 @@ class VehicleRoiExtractor:
         rate = min(1.0, self.params.learning_rate_after_history * self.params.background_every_frames)
         cv2.accumulateWeighted(frame_bgr, self.background, rate, still.astype(np.uint8))
 
-    def foreground(self, roi: Box) -> np.ndarray:
-        """The last frame's vehicle pixels inside `roi` (frame pixels), at full resolution: a bool (roi height,
-        roi width) mask (see `vehicle_silhouette`)."""
+    def foreground(self, roi: Box) -> Silhouette:
+        """The last frame's vehicle pixels inside `roi` (frame pixels), at full resolution (see
+        `vehicle_silhouette`)."""
         if self.last_frame is None or self.background is None:
             raise RuntimeError("no frame has been applied yet")
         background = roi.crop(self.background).astype(np.uint8)

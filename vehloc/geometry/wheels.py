@@ -31,6 +31,7 @@ class WheelParams:
     """Tyre darkness, rim ellipse tests, the tyre's extent and its width."""
 
     band_fraction: float
+    tyre_to_rim_nominal: float
     dark_percentile: float
     dark_contrasts: tuple[float, ...]
     min_rim_px: float
@@ -202,27 +203,34 @@ def tyre_diameter_mm(
 def measure_wheel(
     rim: Ellipse, overlap: float, dark: np.ndarray, mask: np.ndarray, offset_px: np.ndarray, vertical_vp: np.ndarray,
     horizon: np.ndarray, road_to_image: ProjectiveTransform, params: WheelParams,
-) -> tuple[float, Ellipse, np.ndarray, float, np.ndarray, np.ndarray] | None:
+) -> tuple[float, Ellipse, np.ndarray, float, np.ndarray, np.ndarray, bool] | None:
     """A rim (frame px) measured as a wheel: its score, the rim, the outer contact (frame px), the tyre's scale
-    from the rim, the vertical diameter and the horizontal vanishing point (homogeneous); None when the ground is
-    not a tyre's depth below the rim, the tyre between them is not dark, or the tyre is not wheel-sized."""
+    from the rim, the vertical diameter, the horizontal vanishing point (homogeneous) and whether the tyre is
+    the nominal one (the silhouette not ending below it); None when the ground is not a tyre's depth below the
+    rim, the tyre between them is not dark, or the tyre is not wheel-sized."""
     line, horizontal_vp = vertical_diameter(rim, vertical_vp, horizon)
     line = line / np.hypot(line[0], line[1])
     direction = np.array([line[1], -line[0]]) * (1.0 if -line[0] >= 0 else -1.0)  # down the image
     centre = rim.centre_px - (line[:2] @ rim.centre_px + line[2]) * line[:2]  # on the vertical diameter
     rim_bottom_px = float(conic_crossings(rim.conic, centre, direction).max(initial=0.0))
+    if rim_bottom_px <= 0:
+        return None
     low, high = params.tyre_to_rim_range
-    reach = ground_crossing_px(mask, centre - offset_px, direction, high * rim_bottom_px + 2.0)
-    if rim_bottom_px <= 0 or reach is None or not low * rim_bottom_px <= reach <= high * rim_bottom_px:
-        return None
-    tyre = centre - offset_px + np.linspace(rim_bottom_px, reach, 8)[1:-1, None] * direction
-    tyre_dark = float(map_coordinates(dark.astype(np.float32), [tyre[:, 1], tyre[:, 0]], order=0).mean())
-    score = overlap * tyre_dark
-    diameter_mm = tyre_diameter_mm(rim.scaled(reach / rim_bottom_px), vertical_vp, centre, road_to_image)
-    low_mm, high_mm = params.tyre_diameter_range_mm
-    if tyre_dark < params.min_dark_tyre or score < params.min_score or not low_mm <= diameter_mm <= high_mm:
-        return None
-    return score, rim, centre + reach * direction, reach / rim_bottom_px, line, horizontal_vp
+    measured = ground_crossing_px(mask, centre - offset_px, direction, high * rim_bottom_px + 2.0)
+    # where the silhouette ends a tyre below the rim, the ground is there; where it carries on below (a shadow
+    # under the car), a tyre of the nominal size is tried too
+    nominal = params.tyre_to_rim_nominal * rim_bottom_px
+    reaches = [measured] if measured is not None and low * rim_bottom_px <= measured <= high * rim_bottom_px else []
+    reaches += [nominal] if measured is None or measured > nominal else []
+    for reach in reaches:
+        tyre = centre - offset_px + np.linspace(rim_bottom_px, reach, 8)[1:-1, None] * direction
+        tyre_dark = float(map_coordinates(dark.astype(np.float32), [tyre[:, 1], tyre[:, 0]], order=0).mean())
+        score = overlap * tyre_dark
+        diameter_mm = tyre_diameter_mm(rim.scaled(reach / rim_bottom_px), vertical_vp, centre, road_to_image)
+        low_mm, high_mm = params.tyre_diameter_range_mm
+        if tyre_dark >= params.min_dark_tyre and score >= params.min_score and low_mm <= diameter_mm <= high_mm:
+            return score, rim, centre + reach * direction, reach / rim_bottom_px, line, horizontal_vp, reach == nominal
+    return None
 
 
 def wheel_pair(
@@ -277,9 +285,11 @@ def detect_wheels(
     planes_mm = np.array([np.linalg.solve(road_to_image.matrix, item[5])[:2] for item in found])
     keep = wheel_pair(outer_mm, planes_mm, np.array([item[0] for item in found]), params)
     keep = sorted(keep, key=lambda i: found[i][2][0])
+    if len(keep) == 1 and found[keep[0]][6]:
+        return None  # a nominal tyre alone is too weak a sign of a wheel; with its pair it stands
     found, outer_mm, planes_mm = [found[i] for i in keep], outer_mm[keep], planes_mm[keep]
     wheels = []
-    for (score, rim, outer_px, factor, line, _), outer_road, plane_mm in zip(found, outer_mm, planes_mm):
+    for (score, rim, outer_px, factor, line, _, _), outer_road, plane_mm in zip(found, outer_mm, planes_mm):
         # the wheels' plane on the road: through both outer contacts, or towards its vanishing point
         along = outer_mm[-1] - outer_mm[0] if len(found) == 2 else plane_mm
         inward = np.array([-along[1], along[0]]) / np.linalg.norm(along)

@@ -10,7 +10,7 @@ from pathlib import Path
 from vehloc.data.cli import add_data_commands
 from vehloc.errors import exit_on_error
 from vehloc.synth.contact_sheet import write_contact_sheet
-from vehloc.synth.demo_set import make_demo_set
+from vehloc.synth.demo_set import VIEWS, make_demo_set
 
 
 def _make_demo(args: argparse.Namespace) -> int:
@@ -37,8 +37,9 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--seed", type=int, default=0)
     demo.add_argument("--workers", type=int, default=2)
     demo.add_argument(
-        "--views", choices=("traffic", "any"), default="traffic",
-        help="traffic: fronts and rears from above, as a road camera sees them; any: all round",
+        "--views", choices=VIEWS, default="traffic",
+        help="traffic: fronts and rears from above, as a road camera sees them; road: fronts, rears and sides "
+             "from above; any: all round",
     )
     demo.set_defaults(run=_make_demo)
 

@@ -93,9 +93,11 @@ def _car_box_corners_mm(model: CarModel) -> np.ndarray:
     return np.array([[x, y, z] for x in (-hl, hl) for y in (-hw, hw) for z in (0.0, model.height_mm)])
 
 
-VIEWS = ("any", "traffic")
-"""Viewpoint ranges: "any" direction around the car at 0-35 deg elevation (web photos), or "traffic":
-within 30 deg of the car's front or rear at 8-35 deg elevation (a camera above a road)."""
+VIEWS = ("any", "traffic", "road")
+"""Viewpoint ranges: "any" direction around the car at 0-35 deg elevation (web photos); "traffic": within 30
+deg of the car's front or rear at 8-35 deg elevation (a camera above a road, cars driving towards or away
+from it); "road": within 30 deg of the car's front, rear or either side at 8-35 deg elevation (a camera
+above a road and cars along it or across it, as the paper's Table 2 puts them)."""
 
 
 def _camera_direction_deg(rng: np.random.Generator, views: str) -> tuple[float, float]:
@@ -104,6 +106,8 @@ def _camera_direction_deg(rng: np.random.Generator, views: str) -> tuple[float, 
         return float(rng.uniform(0, 360)), float(rng.uniform(0, 35))
     if views == "traffic":
         return float(rng.choice([0.0, 180.0]) + rng.uniform(-30, 30)), float(rng.uniform(8, 35))
+    if views == "road":
+        return float(rng.choice([0.0, 90.0, 180.0, 270.0]) + rng.uniform(-30, 30)), float(rng.uniform(8, 35))
     raise ValueError(f"views must be one of {VIEWS}, not {views!r}")
 
 
