@@ -122,6 +122,8 @@ class VehicleClassifier:
 
     def predictions(self, probabilities: np.ndarray, top_k: int = 5) -> list[Prediction]:
         """Predictions from (N, C) class probabilities (e.g. averaged over a track's frames)."""
+        if top_k < 1:
+            raise ValueError(f"top_k must be at least 1, got {top_k}")
         dims = self.metadata.dims_mm
         expected = expected_dims_mm(probabilities, dims, self.metadata.expected_top_k) if len(probabilities) else []
         predictions = []

@@ -15,7 +15,7 @@ from vehloc.atomic import check_output_dir
 from vehloc.config import ConfigError, config_dir
 from vehloc.errors import exit_on_error, hydra_main
 from vehloc.geometry.site import site_yaml
-from vehloc.synth.scene import SceneError, SceneSpec, write_scene
+from vehloc.synth.scene import SceneError, SceneSpec, check_cars_in_view, write_scene
 from vehloc.synth.scene_site import scene_site
 
 
@@ -28,6 +28,7 @@ def _run(cfg: DictConfig) -> None:
         raise ConfigError(f"site_click_noise_px: expected a number >= 0, got {noise!r}")
     spec = SceneSpec.from_dict(OmegaConf.to_container(cfg.scene, resolve=True))
     out_dir = check_output_dir(Path(cfg.out), "out")
+    check_cars_in_view(spec)
     try:
         site = scene_site(spec, float(noise), spec.seed)
     except ValueError as err:

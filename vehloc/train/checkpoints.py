@@ -23,7 +23,7 @@ class CheckpointError(VehlocError):
     """A checkpoint is missing, unreadable, not a vehloc classifier's, or of other classes than the data."""
 
 
-def _load_failure(exc: BaseException) -> str:
+def load_failure(exc: BaseException) -> str:
     """Why torch.load failed, in a few words (never PyTorch's advice to load the file with weights_only=False,
     which would let an untrusted file run code)."""
     text = str(exc)
@@ -48,7 +48,7 @@ def read_checkpoint(path: str | Path) -> dict[str, Any]:
     try:
         checkpoint = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as exc:  # noqa: BLE001 - any unreadable file is a user error here
-        raise CheckpointError(f"{path}: not a readable checkpoint: {_load_failure(exc)}") from None
+        raise CheckpointError(f"{path}: not a readable checkpoint: {load_failure(exc)}") from None
     hparams = checkpoint.get("hyper_parameters") if isinstance(checkpoint, dict) else None
     if not isinstance(hparams, dict) or "state_dict" not in checkpoint or "class_model_ids" not in hparams:
         raise CheckpointError(f"{path}: not a vehloc classifier checkpoint (no state_dict and class table)")
