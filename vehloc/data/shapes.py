@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from vehloc.atomic import write_text
+from vehloc.data.text import read_json
 from vehloc.errors import DataError
 
 FORMAT = "vehloc vehicle shapes 1"
@@ -67,11 +68,7 @@ def read_shapes(path: str | Path) -> dict[int, VehicleShape]:
     path = Path(path)
     if not path.is_file():
         raise DataError(f"{path}: vehicle-shapes file does not exist")
-    try:
-        content = json.loads(path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as err:
-        raise DataError(f"{path}: not a JSON file ({err})") from None
-    return shapes_from_json(content, str(path))
+    return shapes_from_json(read_json(path), str(path))
 
 
 def shapes_to_json(shapes: dict[int, VehicleShape]) -> dict[str, object]:

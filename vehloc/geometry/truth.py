@@ -4,7 +4,6 @@ pose and box in every frame. Boxes are converted from the file's 0-based inclusi
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -13,6 +12,7 @@ from typing import Any, TypeVar
 import numpy as np
 
 from vehloc.data.boxes import Box
+from vehloc.data.text import read_json
 from vehloc.errors import VehlocError
 from vehloc.geometry.camera import PinholeCamera
 
@@ -187,10 +187,7 @@ def read_scene_truth(path: str | Path) -> SceneTruth:
     path = Path(path)
     if not path.is_file():
         raise SceneTruthError(f"{path}: scene ground truth does not exist")
-    try:
-        raw = json.loads(path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as err:
-        raise SceneTruthError(f"{path}: not a JSON file ({err})") from None
+    raw = read_json(path, SceneTruthError)
     reader = _Reader(path)
     camera_raw = reader.get(raw, "camera", "")
     camera = PinholeCamera(

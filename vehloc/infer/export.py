@@ -5,7 +5,8 @@ ONNX with a dynamic batch axis; the file gets the vehloc metadata, passes
 `onnx.checker.check_model(full_check=True)`, and must reproduce the PyTorch logits on real images, each
 side from the image file through its own pipeline: the training code's evaluation data set for PyTorch,
 the onnxruntime classifier for ONNX (max abs difference and identical top-1). It is written under a
-temporary name and renamed over the output only then, so a failed export never replaces a good file.
+temporary name and renamed over the output only then, so a failed or interrupted export never replaces a good
+file.
 
 This module is where deployment meets training: it needs torch, the rest of `vehloc.infer` does not.
 """
@@ -13,7 +14,6 @@ This module is where deployment meets training: it needs torch, the rest of `veh
 from __future__ import annotations
 
 import hashlib
-import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,6 +22,7 @@ import numpy as np
 import onnx
 import torch
 
+from vehloc.atomic import atomic_path
 from vehloc.data.compcars import CompCarsSample
 from vehloc.data.shapes import VehicleShape
 from vehloc.data.specs import VehicleSpec
@@ -115,13 +116,11 @@ def export_checkpoint(
         raise ExportError("the parity check needs at least one real image")
     checkpoint = read_checkpoint(checkpoint_path)
     metadata = metadata_of(checkpoint, Path(checkpoint_path), shapes)
-    deployed = DeployedClassifier(load_classifier(checkpoint)).eval()
+    deployed = DeployedClassifier(load_classifier(checkpoint, checkpoint_path)).eval()
     images = pytorch_inputs(parity_samples, metadata)
 
     output = Path(output)
-    output.parent.mkdir(parents=True, exist_ok=True)
-    temporary = output.with_name(f".{output.name}.{os.getpid()}.tmp")
-    try:
+    with atomic_path(output) as temporary:
         example = images[:2]
         torch.onnx.export(
             deployed, (example,), str(temporary), input_names=[metadata.input_name],
@@ -133,10 +132,7 @@ def export_checkpoint(
         onnx.save(model, str(temporary))
         onnx.checker.check_model(str(temporary), full_check=True)
         report = _parity(deployed, temporary, images, parity_samples, tolerance, opset, output)
-        os.replace(temporary, output)
-        return report
-    finally:
-        temporary.unlink(missing_ok=True)
+    return report
 
 
 def _parity(

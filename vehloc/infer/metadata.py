@@ -11,6 +11,8 @@ reference) and returns logits and probabilities per class.
 from __future__ import annotations
 
 import json
+import math
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
@@ -75,9 +77,56 @@ class ModelMetadata:
             values["preprocessing"] = Preprocessing.from_dict(values["preprocessing"])
             values["shapes"] = shapes_from_json(values["shapes"], source)
             values["output_names"] = tuple(values["output_names"])
-            return cls(**values)
+            metadata = cls(**values)
         except (json.JSONDecodeError, KeyError, TypeError, ValueError, AttributeError) as exc:
             raise ModelFileError(f"{source}: malformed vehloc metadata ({exc})") from None
+        metadata.check(source)
+        return metadata
+
+    def check(self, source: str) -> None:
+        """ModelFileError naming `source` unless the metadata is usable: classes with distinct model ids and
+        finite positive dimensions, expected_top_k >= 1, two output names."""
+        if not self.classes:
+            raise ModelFileError(f"{source}: the vehloc metadata lists no classes")
+        ids = [c.model_id for c in self.classes]
+        if len(set(ids)) != len(ids):
+            raise ModelFileError(f"{source}: the vehloc metadata lists a model id twice")
+        for spec in self.classes:
+            dims = [spec.length_mm, spec.width_mm, spec.height_mm]
+            if not all(isinstance(d, (int, float)) and math.isfinite(d) and d > 0 for d in dims):
+                raise ModelFileError(f"{source}: class {spec.model_id} has dimensions {dims}; they must be finite and positive")
+        if not (isinstance(self.expected_top_k, int) and self.expected_top_k >= 1):
+            raise ModelFileError(f"{source}: expected_top_k {self.expected_top_k!r} in the metadata is not an integer >= 1")
+        if len(self.output_names) != 2:
+            raise ModelFileError(f"{source}: the metadata needs two output names (logits, probabilities)")
+
+    def check_graph(self, inputs: Sequence[tuple[str, Sequence[object]]], outputs: Sequence[tuple[str, Sequence[object]]],
+                    source: str) -> None:
+        """ModelFileError naming `source` unless the graph is the one the metadata describes: one input of that
+        name with shape (N, 3, S, S), S the preprocessing's input size, and the two named outputs (N, C), C
+        the number of classes. `inputs`, `outputs`: (name, shape) of the graph's, a dimension an int or a name."""
+        size = self.preprocessing.input_size_px
+        if len(inputs) != 1 or inputs[0][0] != self.input_name:
+            raise ModelFileError(
+                f"{source}: the graph's inputs {[name for name, _ in inputs]} are not the one input "
+                f"{self.input_name!r} of its metadata")
+        shape = list(inputs[0][1])
+        if len(shape) != 4 or shape[1:] != [3, size, size]:
+            raise ModelFileError(
+                f"{source}: the graph takes input shape {_shape_text(shape)}, its metadata says (N, 3, {size}, {size})")
+        by_name = {name: list(shape) for name, shape in outputs}
+        for name in self.output_names:
+            if name not in by_name:
+                raise ModelFileError(f"{source}: the graph has no output {name!r} (its outputs: {', '.join(by_name)})")
+            shape = by_name[name]
+            if len(shape) != 2 or shape[1] != len(self.classes):
+                raise ModelFileError(
+                    f"{source}: output {name!r} has shape {_shape_text(shape)}, but the metadata lists "
+                    f"{len(self.classes)} classes")
+
+
+def _shape_text(shape: Sequence[object]) -> str:
+    return "(" + ", ".join("N" if not isinstance(d, int) else str(d) for d in shape) + ")"
 
 
 def attach_metadata(model: onnx.ModelProto, metadata: ModelMetadata) -> None:

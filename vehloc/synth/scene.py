@@ -20,8 +20,8 @@ from typing import Any
 import cv2
 import numpy as np
 
-from vehloc.atomic import atomic_path, write_text
-from vehloc.config import build_params
+from vehloc.atomic import atomic_paths
+from vehloc.config import SettingError, build_params, check_range
 from vehloc.data.boxes import Box
 from vehloc.errors import VehlocError
 from vehloc.geometry.camera import PinholeCamera
@@ -39,6 +39,8 @@ from vehloc.synth.render import (
 from vehloc.synth.road import RoadLayout, render_road
 
 CODECS = {"lossless": "FFV1", "mjpeg": "MJPG"}
+MIN_IMAGE_SIDE_PX, MAX_IMAGE_SIDE_PX = 16, 8192
+MAX_FRAMES = 100_000
 MJPEG_QUALITY = 95
 BOX_CONVENTION = (
     "0-based inclusive x1 y1 x2 y2 of the pixels the car covers at least half, each car's box as if it were "
@@ -67,6 +69,13 @@ class CameraSpec:
     width_px: int
     height_px: int
     roll_deg: float
+
+    def __post_init__(self) -> None:
+        check_range("focal_px", self.focal_px, 0.0, low_open=True)
+        check_range("width_px", self.width_px, MIN_IMAGE_SIDE_PX, MAX_IMAGE_SIDE_PX)
+        check_range("height_px", self.height_px, MIN_IMAGE_SIDE_PX, MAX_IMAGE_SIDE_PX)
+        if tuple(self.position_mm) == tuple(self.target_mm):
+            raise SettingError("target_mm", "is the camera's position; the camera must look somewhere else")
 
     def camera(self) -> PinholeCamera:
         return PinholeCamera.look_at(
@@ -99,6 +108,8 @@ class CarSpec:
             raise ValueError(f"approach_mm must be positive, got {self.approach_mm}")
         if self.delay_frames < 0:
             raise ValueError(f"delay_frames must be >= 0, got {self.delay_frames}")
+        if self.delay_frames > MAX_FRAMES:
+            raise ValueError(f"delay_frames must be <= {MAX_FRAMES}, got {self.delay_frames}")
 
     @property
     def target_pose(self) -> CarPose:
@@ -137,16 +148,16 @@ class SceneSpec:
     def __post_init__(self) -> None:
         if not self.cars:
             raise ValueError("cars: a scene needs at least one car")
-        if self.empty_frames < 0 or self.stopped_frames < 0:
-            raise ValueError(
-                f"empty_frames and stopped_frames must be >= 0, got {self.empty_frames} and {self.stopped_frames}"
-            )
-        if self.drive_frames < 1:
-            raise ValueError(f"drive_frames must be >= 1, got {self.drive_frames}")
-        if self.fps <= 0 or self.noise_sigma < 0:
-            raise ValueError(f"fps must be positive and noise_sigma >= 0, got {self.fps}, {self.noise_sigma}")
+        check_range("empty_frames", self.empty_frames, 0, MAX_FRAMES)
+        check_range("stopped_frames", self.stopped_frames, 0, MAX_FRAMES)
+        check_range("drive_frames", self.drive_frames, 1, MAX_FRAMES)
+        check_range("fps", self.fps, 0.0, 1000.0, low_open=True)
+        check_range("noise_sigma", self.noise_sigma, 0.0, 100.0)
+        check_range("light_elevation_deg", self.light_elevation_deg, 0.0, 90.0, low_open=True)
         if self.codec not in CODECS:
             raise ValueError(f"codec must be one of {sorted(CODECS)}, got {self.codec!r}")
+        if self.frame_count > MAX_FRAMES:
+            raise ValueError(f"the scene would have {self.frame_count} frames; at most {MAX_FRAMES}")
 
     @classmethod
     def from_dict(cls, values: Mapping[str, Any]) -> SceneSpec:
@@ -328,16 +339,39 @@ def _write_video(spec: SceneSpec, path: Path) -> list[tuple[Box | None, ...]]:
     return boxes
 
 
-def write_scene(spec: SceneSpec, out_dir: Path) -> tuple[Path, Path]:
-    """Render a scene to `out_dir/video.avi` and `out_dir/ground_truth.json` (each written whole or not at
-    all); return both paths."""
+def check_cars_in_view(spec: SceneSpec) -> None:
+    """SceneError naming the car when a car's footprint at its target pose lies wholly outside the image or
+    behind the camera: a scene of it would be a video without it."""
+    camera = spec.camera.camera()
+    for index, car in enumerate(spec.cars):
+        corners_mm = car.target_pose.car_to_world(footprint_car_mm(car.model))
+        in_front = camera.to_camera(corners_mm)[:, 2] > 0
+        pixels = camera.project(corners_mm)
+        inside = (in_front & np.all(np.isfinite(pixels), axis=1) & (pixels[:, 0] >= 0) & (pixels[:, 0] < camera.width_px)
+                  & (pixels[:, 1] >= 0) & (pixels[:, 1] < camera.height_px))
+        if not inside.any():
+            raise SceneError(
+                f"scene.cars[{index}]: at its target pose ({car.target_x_mm:g}, {car.target_y_mm:g}) mm the car is "
+                "not in the camera's view"
+            )
+
+
+def write_scene(spec: SceneSpec, out_dir: Path, site_yaml: str | None = None) -> tuple[Path, Path]:
+    """Render a scene to `out_dir/video.avi` and `out_dir/ground_truth.json` (and `site_yaml`, the text of its
+    site file, to `out_dir/site.yaml`); return the video's and the truth's paths. Every file is written to a
+    temporary sibling first, and they all replace their targets together when the last is complete, so an
+    interrupt or a failure leaves an earlier scene in `out_dir` whole and matching."""
+    check_cars_in_view(spec)
     video_path, truth_path = out_dir / "video.avi", out_dir / "ground_truth.json"
-    with atomic_path(video_path) as temporary:
-        staged = temporary.with_name(temporary.name + video_path.suffix)  # OpenCV picks the container by suffix
+    targets = [video_path, truth_path] + ([out_dir / "site.yaml"] if site_yaml is not None else [])
+    with atomic_paths(targets) as temporaries:
+        staged = temporaries[0].with_name(temporaries[0].name + video_path.suffix)  # OpenCV picks the container by suffix
         try:
             boxes = _write_video(spec, staged)
-            staged.replace(temporary)
+            staged.replace(temporaries[0])
         finally:
             staged.unlink(missing_ok=True)
-    write_text(truth_path, json.dumps(ground_truth(spec, boxes), indent=1))
+        temporaries[1].write_text(json.dumps(ground_truth(spec, boxes), indent=1), encoding="utf-8")
+        if site_yaml is not None:
+            temporaries[2].write_text(site_yaml, encoding="utf-8")
     return video_path, truth_path
