@@ -26,6 +26,7 @@ CLI_MODULES = {
     "vehloc-predict": "vehloc.infer.predict_cli",
     "vehloc-train": "vehloc.train.train",
     "vehloc-eval": "vehloc.train.evaluate",
+    "vehloc-localize": "vehloc.geometry.localize_cli",
 }
 
 

@@ -20,9 +20,10 @@ from vehloc.data.boxes import Box
 from vehloc.data.shapes import VehicleShape
 from vehloc.data.specs import VehicleSpec
 from vehloc.errors import VehlocError
-from vehloc.geometry.footprint import FootprintParams, detect_footprint
+from vehloc.geometry.footprint import FootprintLines, FootprintParams, detect_footprint
 from vehloc.geometry.placement import VehicleBox, direction_of, place_on_end, place_on_side
 from vehloc.geometry.plate import PlateParams, detect_plate
+from vehloc.geometry.roi import Silhouette
 from vehloc.geometry.site_calibration import CameraCalibration
 from vehloc.geometry.wheels import Wheel, WheelParams, detect_wheels
 
@@ -115,28 +116,30 @@ def tyre_position_px(wheel: Wheel) -> np.ndarray:
 
 
 def paper_placement(
-    roi_bgr: np.ndarray, mask: np.ndarray, roi: Box, calibration: CameraCalibration, spec: VehicleSpec,
+    roi_bgr: np.ndarray, silhouette: Silhouette, roi: Box, calibration: CameraCalibration, spec: VehicleSpec,
     shape: VehicleShape, params: DetectorParams, visible_end: str | None = None,
 ) -> Placement:
     """The paper's placement of the predicted model's box (`spec`) from the vehicle in `roi` (its crop and
-    foreground); NotLocalized saying why when the key points cannot be found. The front footprint line is the
-    silhouette's lower edge at the visible end, a bumper's height above the road: it is lowered to the road
-    by that height, the predicted model's (`shape`; `visible_end` `front` or `rear` when known)."""
+    silhouette); NotLocalized saying why when the key points cannot be found.
+
+    Plate branch: the front footprint line is the lower edge at the visible end of the silhouette trimmed of
+    the shadow below it; that edge is the bumper's, a bumper's height above the road, so it is lowered to the
+    road by that height, the predicted model's (`shape`; `visible_end` `front` or `rear` when known). Wheel
+    branch: the lines of the whole silhouette, whose dark tyres reach the road."""
     road_to_image, offset = calibration.road_to_image, np.array([roi.x0, roi.y0], dtype=float)
     foot = calibration.camera.centre_mm[:2]
-    lines = detect_footprint(roi_bgr, mask, offset, road_to_image, foot, params.footprint)
-    if lines is None:
-        raise NotLocalized("no footprint lines: the vehicle's edges show no road direction")
     length_mm, width_mm = spec.length_mm, spec.width_mm
-    plate = detect_plate(roi_bgr, mask, offset, params.plate)
+    plate = detect_plate(roi_bgr, silhouette.mask, offset, params.plate)
     if plate is not None:
+        lines = _footprint_lines(roi_bgr, silhouette.trimmed(), offset, calibration, params)
         p_mm = road_to_image.inverse.map_visible(plate.centre_px[None], "P")[0]
         front_line = lowered_line_mm(lines.front_line_mm, end_bottom_height_mm(shape, visible_end), calibration.camera.centre_mm)
         o_mm = below_plate_mm(p_mm, front_line, foot)
         into = inward(lines.length_heading_deg, o_mm, foot)
         box = place_on_end(o_mm, into, length_mm, width_mm)
         return Placement(box, "plate", o_mm, o_mm + C_DISTANCE_MM * into, length_mm / 2)
-    wheels = detect_wheels(roi_bgr, mask, offset, road_to_image, foot, params.wheels, lines.side_line_px)
+    lines = _footprint_lines(roi_bgr, silhouette.mask, offset, calibration, params)
+    wheels = detect_wheels(roi_bgr, silhouette.mask, offset, road_to_image, foot, params.wheels, lines.side_line_px)
     if wheels is None or len(wheels.wheels) < 2:
         found = "one wheel" if wheels is not None else "no wheel"
         raise NotLocalized(f"neither a licence plate nor two wheels found (found {found})")
@@ -146,3 +149,12 @@ def paper_placement(
     into = inward(lines.length_heading_deg + 90.0, q_mm, foot)
     box = place_on_side(q_mm, into, length_mm, width_mm)
     return Placement(box, "wheels", q_mm, q_mm + C_DISTANCE_MM * into, float(np.linalg.norm(contacts_mm[1] - contacts_mm[0])))
+
+
+def _footprint_lines(roi_bgr: np.ndarray, mask: np.ndarray, offset: np.ndarray, calibration: CameraCalibration,
+                     params: DetectorParams) -> FootprintLines:
+    lines = detect_footprint(roi_bgr, mask, offset, calibration.road_to_image, calibration.camera.centre_mm[:2],
+                             params.footprint)
+    if lines is None:
+        raise NotLocalized("no footprint lines: the vehicle's edges show no road direction")
+    return lines

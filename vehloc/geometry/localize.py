@@ -25,6 +25,7 @@ from vehloc.geometry.placement import VehicleBox, facing, heading_of
 from vehloc.geometry.projective import HorizonError
 from vehloc.geometry.roi import StoppedVehicleTracker, Track, TrackerParams, VehicleRoiExtractor, RoiParams
 from vehloc.geometry.site_calibration import CameraCalibration
+from vehloc.geometry.timing import StageClock
 from vehloc.geometry.tracks import TrackVotes
 from vehloc.geometry.uncertainty import (
     Uncertainty,
@@ -131,6 +132,7 @@ class Localizer:
         tracker: TrackerParams | None = None,
         detectors: DetectorParams | None = None,
         fit: FitParams | None = None,
+        clock: StageClock | None = None,
     ) -> None:
         if calibration.camera is None:
             raise VehlocError(f"{calibration.source}: no pinhole camera can be recovered from this calibration")
@@ -142,18 +144,22 @@ class Localizer:
         self.detectors = detectors or DetectorParams.from_config()
         self.fit_params = fit or FitParams.from_config()
         self.states: dict[int, _TrackState] = {}
+        self.clock = clock or StageClock()
 
     def process(self, frame_index: int, frame_bgr: np.ndarray) -> list[VehicleRecord]:
         """Feed one frame; the records of the vehicles localized at it."""
         height_px, width_px = frame_bgr.shape[:2]
         self.calibration.check_image_size(width_px, height_px, f"frame {frame_index}")
-        stopped = self.tracker.update(self.extractor.apply(frame_bgr), frame_index)
-        live = [t for t in self.tracker.tracks if t.frames[-1] == frame_index]
-        for track in live:
-            state = self.states.setdefault(track.track_id, _TrackState(TrackVotes(self.params.vote_frames)))
-            state.votes.add(frame_bgr, track.box)
-            bottom = np.array([[track.box.centre_px[0], track.box.y1 - 1.0]])
-            state.ground_points_mm.append(self.calibration.road_to_image.inverse(bottom)[0])
+        with self.clock.stage("background"):
+            boxes = self.extractor.apply(frame_bgr)
+        with self.clock.stage("tracking"):
+            stopped = self.tracker.update(boxes, frame_index)
+            live = [t for t in self.tracker.tracks if t.frames[-1] == frame_index]
+            for track in live:
+                state = self.states.setdefault(track.track_id, _TrackState(TrackVotes(self.params.vote_frames)))
+                state.votes.add(frame_bgr, track.box)
+                bottom = np.array([[track.box.centre_px[0], track.box.y1 - 1.0]])
+                state.ground_points_mm.append(self.calibration.road_to_image.inverse(bottom)[0])
         due = live if self.params.every_frame else stopped
         return [self.localize(track, frame_index, frame_bgr) for track in due]
 
@@ -179,17 +185,19 @@ class Localizer:
         height_px, width_px = frame_bgr.shape[:2]
         if box.touches_border(width_px, height_px, self.params.border_margin_px):
             return VehicleRecord(track.track_id, frame_index, box, NOT_LOCALIZED, "the vehicle touches the frame's edge")
-        probabilities = self.states[track.track_id].votes.vote(self.classifier)
+        with self.clock.stage("classification"):
+            probabilities = self.states[track.track_id].votes.vote(self.classifier)
         top1 = self.classifier.predictions(probabilities[None], top_k=1)[0].top1
         spec = next(c for c in self.classifier.classes if c.model_id == top1.model_id)
         record = VehicleRecord(track.track_id, frame_index, box, LOCALIZED, "", top1.model_id, top1.make, top1.model,
                                top1.probability, tuple(float(v) for v in spec.dims_mm))
         roi = box.enlarged(self.params.detector_roi_fraction, width_px, height_px)
-        silhouette = self.extractor.foreground(roi)
         try:
-            placement = paper_placement(roi.crop(frame_bgr), silhouette.trimmed(), roi, self.calibration, spec,
-                                        self.classifier.metadata.shape_of(spec.model_id), self.detectors,
-                                        self.visible_end(track))
+            with self.clock.stage("key points"):
+                silhouette = self.extractor.foreground(roi)
+                placement = paper_placement(roi.crop(frame_bgr), silhouette, roi, self.calibration, spec,
+                                            self.classifier.metadata.shape_of(spec.model_id), self.detectors,
+                                            self.visible_end(track))
         except (NotLocalized, HorizonError) as why:
             return VehicleRecord(**{**record.__dict__, "status": NOT_LOCALIZED, "reason": str(why)})
         travel = self.travel_heading_deg(track)
@@ -197,7 +205,8 @@ class Localizer:
         estimates = [Estimate("paper", paper_box, placement.kind, self._paper_uncertainty(paper_box, placement.kind,
                                                                                          probabilities, placement.baseline_mm))]
         if self.params.fit:
-            estimates.append(self._fit(paper_box, silhouette.weights, roi, probabilities, travel))
+            with self.clock.stage("model fit"):
+                estimates.append(self._fit(paper_box, silhouette.weights, roi, probabilities, travel))
         return VehicleRecord(**{**record.__dict__, "estimates": tuple(estimates)})
 
     def _calibration_part(self, box: VehicleBox, baseline_mm: float) -> tuple[float, float]:

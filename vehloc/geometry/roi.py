@@ -45,6 +45,7 @@ class RoiParams:
     silhouette_shadow_min_correlation: float
     silhouette_close_px: int
     silhouette_doubt_weight: float
+    silhouette_smooth_ratio: float
 
     @classmethod
     def from_config(cls, **overrides: object) -> RoiParams:
@@ -62,6 +63,13 @@ def local_correlation(image: np.ndarray, reference: np.ndarray, window_px: int) 
     var_a = np.maximum(cv2.blur(a * a, size) - mean_a**2, 0)
     var_b = np.maximum(cv2.blur(b * b, size) - mean_b**2, 0)
     return cov / np.sqrt(var_a * var_b + 1e-3), np.sqrt(var_b)
+
+
+def local_std(image: np.ndarray, window_px: int) -> np.ndarray:
+    """A grey image's standard deviation over a square window around every pixel."""
+    a = image.astype(np.float32)
+    size = (window_px, window_px)
+    return np.sqrt(np.maximum(cv2.blur(a * a, size) - cv2.blur(a, size) ** 2, 0))
 
 
 def remove_shadows(
@@ -98,26 +106,30 @@ def clean_mask(mask: np.ndarray, params: RoiParams) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class Silhouette:
-    """A vehicle's pixels in an ROI (bool mask), and how sure each is (1, or `silhouette_doubt_weight` where
-    the pixel is only darker than the road and may be shadow the texture test could not tell)."""
+    """A vehicle's pixels in an ROI (bool mask), how sure each is (1, or `silhouette_doubt_weight` where the
+    pixel is only darker than the road and may be shadow the texture test could not tell), and which are
+    solid: sure, or darker but smooth where the road has texture (a body face, not a shadow on the road)."""
 
     mask: np.ndarray
     weights: np.ndarray
+    solid: np.ndarray
+    margin_px: int
 
-    def trimmed(self, margin_px: int = 2) -> np.ndarray:
-        """The mask without the doubtful pixels below the lowest sure one of each column (a shadow under the
-        vehicle, which would otherwise pass for its bottom edge)."""
-        sure = self.weights >= 1.0
+    def trimmed(self) -> np.ndarray:
+        """The mask without the pixels below the lowest solid one of each column (within `margin_px`, the
+        texture window's reach): a shadow under the vehicle, which would otherwise pass for its bottom edge."""
         rows = np.arange(self.mask.shape[0])[:, None]
-        lowest = np.where(sure.any(axis=0), self.mask.shape[0] - 1 - np.argmax(sure[::-1], axis=0), -1)
-        return self.mask & (sure | (rows <= lowest[None, :] + margin_px))
+        solid = self.solid & self.mask
+        lowest = np.where(solid.any(axis=0), self.mask.shape[0] - 1 - np.argmax(solid[::-1], axis=0), -1)
+        return self.mask & (rows <= lowest[None, :] + self.margin_px)
 
 
 def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: RoiParams) -> Silhouette:
     """The vehicle's pixels in an ROI at full resolution, against the full-resolution background: colour
     changed by more than `silhouette_threshold`, except cast shadow (uniformly darker by a ratio within
     `silhouette_shadow_ratio` with the road's texture showing through), closed, holes filled, the largest
-    blob kept."""
+    blob kept. Darker pixels are solid where their texture is below `silhouette_smooth_ratio` of the road's
+    there (darkened alike): a smooth body face."""
     frame = roi_bgr.astype(np.float32)
     background = background_bgr.astype(np.float32)
     changed = np.abs(frame - background).max(axis=2) > params.silhouette_threshold
@@ -136,7 +148,11 @@ def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: 
     if contours:
         cv2.drawContours(filled, [max(contours, key=cv2.contourArea)], -1, 255, cv2.FILLED)
     vehicle = filled > 0
-    return Silhouette(vehicle, np.where(vehicle, np.where(ratio <= high, params.silhouette_doubt_weight, 1.0), 0.0))
+    darker_than_road = ratio <= high
+    window = params.silhouette_shadow_window_px
+    smooth = local_std(grey, window) < params.silhouette_smooth_ratio * ratio * texture
+    return Silhouette(vehicle, np.where(vehicle, np.where(darker_than_road, params.silhouette_doubt_weight, 1.0), 0.0),
+                      vehicle & (~darker_than_road | smooth), window // 2)
 
 
 def scaled_box(box: Box, factor: float, width_px: int, height_px: int) -> Box:
