@@ -18,7 +18,7 @@ def detect_all(case):
                              FootprintParams.from_config())
     plate = detect_plate(case.roi_bgr, case.mask, case.offset_px, PlateParams.from_config())
     wheels = detect_wheels(case.roi_bgr, case.mask, case.offset_px, road_to_image, case.camera_foot_mm,
-                           WheelParams.from_config(), lines.side_line_px if lines is not None else None)
+                           WheelParams.from_config())
     return lines, plate, wheels
 
 
@@ -34,13 +34,13 @@ def test_plate_branch(car):
 
 @pytest.mark.parametrize("car", [SILVER, BLACK])
 def test_wheel_branch(car):
-    """Side-on at 10 m (Table 2 "middle 0"): two wheels whose vertical diameters cross l_S within 1.5 px of their
-    outer contacts, no plate, and Q between the two contacts."""
+    """Side-on at 10 m (Table 2 "middle 0"): two wheels whose outer contacts lie within 1.5 px of l_S, no plate,
+    and Q between the two contacts."""
     case = render_case(car, "table2_middle_0")
     lines, plate, wheels = detect_all(case)
     assert plate is None and wheels is not None and len(wheels.wheels) == 2
     for wheel in wheels.wheels:
-        assert np.linalg.norm(wheel.side_crossing_px - wheel.outer_contact_px) <= 1.5
+        assert abs(lines.side_line_px @ np.append(wheel.outer_contact_px, 1.0)) <= 1.5
     rear, front = (wheel.contact_px for wheel in wheels.wheels)
     along = (wheels.q_px - rear) @ (front - rear) / np.sum((front - rear) ** 2)
     assert 0.4 < along < 0.6

@@ -15,9 +15,9 @@ from vehloc.geometry.wheels import Ellipse, WheelParams, conic_crossings, detect
 PARAMS = WheelParams.from_config()
 
 
-def wheels_of(case, side_line_px=None):
+def wheels_of(case):
     return detect_wheels(case.roi_bgr, case.mask, case.offset_px, case.camera.road_to_image(), case.camera_foot_mm,
-                         PARAMS, side_line_px)
+                         PARAMS)
 
 
 def contact_errors_px(case, wheels) -> np.ndarray:
@@ -88,20 +88,19 @@ def test_a_wheel_seen_20_to_30_deg_off_end_on_is_still_measured(pose):
 
 def test_tyre_geometry_and_side_line_crossing():
     """Each wheel's tyre ellipse is its rim scaled about the centre down to the road (its lowest point on the
-    vertical diameter is the outer contact, within 0.05 px); with l_S from the footprint, the vertical diameter
-    crosses it within 1.5 px of the outer contact (l_S touches the tyres' outer faces)."""
+    vertical diameter is the outer contact, within 0.05 px); l_S from the footprint passes within 1.5 px of the
+    outer contacts (it touches the tyres' outer faces)."""
     case = render_case(SILVER, "table2_close_minus30")
     lines = detect_footprint(case.roi_bgr, case.mask, case.offset_px, case.camera.road_to_image(),
                              case.camera_foot_mm, FootprintParams.from_config())
-    wheels = wheels_of(case, lines.side_line_px)
+    wheels = wheels_of(case)
     for wheel in wheels.wheels:
         assert wheel.tyre.angle_deg == wheel.rim.angle_deg and wheel.tyre.semi_axes_px[0] > wheel.rim.semi_axes_px[0]
         line = wheel.vertical_line_px
         assert abs(wheel.outer_contact_px @ line[:2] + line[2]) < 1e-6
         assert abs(np.append(wheel.outer_contact_px, 1.0) @ wheel.tyre.conic @ np.append(wheel.outer_contact_px, 1.0)) \
             < 0.05 * 2 / wheel.tyre.semi_axes_px[1]
-        assert np.linalg.norm(wheel.side_crossing_px - wheel.outer_contact_px) <= 1.5
-    assert wheels_of(case).wheels[0].side_crossing_px is None
+        assert abs(lines.side_line_px @ np.append(wheel.outer_contact_px, 1.0)) <= 1.5
 
 
 @pytest.mark.parametrize("degrade", ["erode", "dilate"])

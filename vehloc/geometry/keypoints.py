@@ -3,8 +3,9 @@
 The plate branch, first: O is the footprint point below the plate's middle P, where the image of the
 vertical through P (towards the camera's vertical vanishing point) meets the front line l_F; C lies along
 the side line's direction, into the vehicle; the box's visible end is stuck to O_W with its long
-centreline along O_W C_W. The wheel branch, when no plate is found: the two near tyres' crossings with
-the side line l_S, Q their middle on the road, C along the front line's direction, into the vehicle; the
+centreline along O_W C_W. The wheel branch, when no plate is found: the two near tyres' contacts on the side
+line l_S (the outer faces' contacts with the road, where l_S touches the tyres; taken from the tyres
+themselves, as a shadow beside the car can push the silhouette's l_S outwards), Q their middle on the road, C along the front line's direction, into the vehicle; the
 box's near side is stuck to Q_W between the axles with its short centreline along Q_W C_W.
 """
 
@@ -25,7 +26,7 @@ from vehloc.geometry.placement import VehicleBox, direction_of, place_on_end, pl
 from vehloc.geometry.plate import PlateParams, detect_plate
 from vehloc.geometry.roi import Silhouette
 from vehloc.geometry.site_calibration import CameraCalibration
-from vehloc.geometry.wheels import Wheel, WheelParams, detect_wheels
+from vehloc.geometry.wheels import WheelParams, detect_wheels
 
 C_DISTANCE_MM = 1000.0
 """How far along the reference direction the paper's point C is taken."""
@@ -106,15 +107,6 @@ def below_plate_mm(plate_centre_mm: np.ndarray, front_line_mm: np.ndarray, camer
     return point[:2] / point[2]
 
 
-def tyre_position_px(wheel: Wheel) -> np.ndarray:
-    """The paper's tyre position: the wheel's crossing with the side line l_S, when that lies on the tyre
-    (within its rim radius of the tyre's contact); else the contact itself."""
-    crossing = wheel.side_crossing_px
-    if crossing is not None and np.linalg.norm(crossing - wheel.contact_px) <= wheel.rim.semi_axes_px[0]:
-        return crossing
-    return wheel.contact_px
-
-
 def paper_placement(
     roi_bgr: np.ndarray, silhouette: Silhouette, roi: Box, calibration: CameraCalibration, spec: VehicleSpec,
     shape: VehicleShape, params: DetectorParams, visible_end: str | None = None,
@@ -139,11 +131,11 @@ def paper_placement(
         box = place_on_end(o_mm, into, length_mm, width_mm)
         return Placement(box, "plate", o_mm, o_mm + C_DISTANCE_MM * into, length_mm / 2)
     lines = _footprint_lines(roi_bgr, silhouette.mask, offset, calibration, params)
-    wheels = detect_wheels(roi_bgr, silhouette.mask, offset, road_to_image, foot, params.wheels, lines.side_line_px)
+    wheels = detect_wheels(roi_bgr, silhouette.mask, offset, road_to_image, foot, params.wheels)
     if wheels is None or len(wheels.wheels) < 2:
         found = "one wheel" if wheels is not None else "no wheel"
         raise NotLocalized(f"neither a licence plate nor two wheels found (found {found})")
-    contacts_px = np.array([tyre_position_px(w) for w in wheels.wheels])
+    contacts_px = np.array([w.outer_contact_px for w in wheels.wheels])
     contacts_mm = road_to_image.inverse.map_visible(contacts_px, "tyre contact")
     q_mm = contacts_mm.mean(axis=0)
     into = inward(lines.length_heading_deg + 90.0, q_mm, foot)

@@ -95,8 +95,7 @@ class Wheel:
     ``rim``: the fitted rim ellipse; ``tyre``: the rim ellipse scaled about its centre to reach the ground;
     ``outer_contact_px``: where the tyre's outer face meets the road (the lowest point of the tyre ellipse on
     its vertical diameter); ``contact_px``: the tyre's contact, half a tyre width further in; ``vertical_line_px``:
-    the image of the wheel's vertical diameter (homogeneous); ``side_crossing_px``: where that line crosses the
-    side line l_S (None without l_S); ``score`` in [0, 1]: how well the rim fills its ellipse times how dark the
+    the image of the wheel's vertical diameter (homogeneous); ``score`` in [0, 1]: how well the rim fills its ellipse times how dark the
     tyre is below it."""
 
     rim: Ellipse
@@ -104,7 +103,6 @@ class Wheel:
     outer_contact_px: np.ndarray
     contact_px: np.ndarray
     vertical_line_px: np.ndarray
-    side_crossing_px: np.ndarray | None
     score: float
 
 
@@ -260,14 +258,12 @@ def detect_wheels(
     road_to_image: ProjectiveTransform,
     camera_foot_mm: np.ndarray,
     params: WheelParams,
-    side_line_px: np.ndarray | None = None,
 ) -> Wheels | None:
     """The near-side wheels of the vehicle in an ROI, or None when no wheel scores `min_score`.
 
     `roi_bgr`: the ROI crop (uint8 BGR); `mask`: its foreground (bool); `offset_px`: the ROI's top-left in the
     frame (x, y); `road_to_image`: road mm -> frame px; `camera_foot_mm`: the road point below the camera
-    (`PinholeCamera.centre_mm[:2]`), whose image is the vertical vanishing point;
-    `side_line_px`: l_S (homogeneous, frame px) when known."""
+    (`PinholeCamera.centre_mm[:2]`), whose image is the vertical vanishing point."""
     mask = np.asarray(mask, dtype=bool)
     if not mask.any():
         return None
@@ -295,11 +291,7 @@ def detect_wheels(
         inward = np.array([-along[1], along[0]]) / np.linalg.norm(along)
         inward = inward if inward @ (outer_road - foot) > 0 else -inward
         contact = road_to_image(outer_road + params.tyre_width_mm / 2 * inward)[0]
-        crossing = None
-        if side_line_px is not None:
-            point = meet(line, np.asarray(side_line_px, dtype=float))
-            crossing = point[:2] / point[2] if abs(point[2]) > 1e-12 else None
-        wheels.append(Wheel(rim, rim.scaled(factor), outer_px, contact, line, crossing, score))
+        wheels.append(Wheel(rim, rim.scaled(factor), outer_px, contact, line, score))
     q_px = None
     if len(wheels) == 2:
         contacts_mm = road_to_image.inverse(np.array([wheel.contact_px for wheel in wheels]))
