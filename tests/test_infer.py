@@ -187,8 +187,10 @@ def test_predict_cli_crops_whole_compcars_images_to_their_labels(
     assert exit_info.value.code == 1
     err = capsys.readouterr().err
     assert "vehloc-predict: error:" in err and str(tmp_path / "label" / "1" / "1" / "2013" / "0000.txt") in err
+    loose = tmp_path / "loose.jpg"
+    loose.write_bytes(samples[0].image_path.read_bytes())
     with pytest.raises(SystemExit):
-        predict_main([*argv, str(tmp_path / "loose.jpg")])
+        predict_main([*argv, str(loose)])
     assert "not under an image/ folder" in capsys.readouterr().err
 
 
