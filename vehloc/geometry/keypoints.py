@@ -22,7 +22,7 @@ from vehloc.data.shapes import VehicleShape
 from vehloc.data.specs import VehicleSpec
 from vehloc.errors import VehlocError
 from vehloc.geometry.footprint import FootprintLines, FootprintParams, detect_footprint
-from vehloc.geometry.placement import VehicleBox, direction_of, place_on_end, place_on_side
+from vehloc.geometry.placement import VehicleBox, axis_difference_deg, direction_of, heading_of, place_on_end, place_on_side
 from vehloc.geometry.plate import PlateParams, detect_plate
 from vehloc.geometry.roi import Silhouette
 from vehloc.geometry.site_calibration import CameraCalibration
@@ -138,9 +138,16 @@ def paper_placement(
     contacts_px = np.array([w.outer_contact_px for w in wheels.wheels])
     contacts_mm = road_to_image.inverse.map_visible(contacts_px, "tyre contact")
     q_mm = contacts_mm.mean(axis=0)
-    into = inward(lines.length_heading_deg + 90.0, q_mm, foot)
+    into = inward(length_axis_by_wheels(lines.length_heading_deg, contacts_mm) + 90.0, q_mm, foot)
     box = place_on_side(q_mm, into, length_mm, width_mm)
     return Placement(box, "wheels", q_mm, q_mm + C_DISTANCE_MM * into, float(np.linalg.norm(contacts_mm[1] - contacts_mm[0])))
+
+
+def length_axis_by_wheels(length_heading_deg: float, contacts_mm: np.ndarray) -> float:
+    """The footprint's length axis, or its perpendicular when that is the one the two wheels' contacts run
+    along (the wheels of one side lie along the length; the lines alone can mistake an end for a side)."""
+    wheels_deg = heading_of(contacts_mm[1] - contacts_mm[0])
+    return length_heading_deg if abs(axis_difference_deg(wheels_deg, length_heading_deg)) <= 45.0 else length_heading_deg + 90.0
 
 
 def _footprint_lines(roi_bgr: np.ndarray, mask: np.ndarray, offset: np.ndarray, calibration: CameraCalibration,
