@@ -21,7 +21,6 @@ from vehloc.config import config_dir
 from vehloc.geometry.calibration import calibrate
 from vehloc.geometry.markers import detect_markers
 from vehloc.geometry.roi import StoppedVehicleTracker, VehicleRoiExtractor
-from vehloc.synth.catalog import model_by_id
 from vehloc.synth.render import render_car
 from vehloc.synth.road import render_road
 from vehloc.synth.scene import SceneSpec, render_frames
@@ -53,7 +52,7 @@ def main() -> None:
     road = render_road(camera, spec.layout, np.random.default_rng(0))
     site = scene_site(spec)
     markers = detect_markers(road)
-    model = model_by_id(spec.model_id)
+    car = spec.cars[0]
     frames = [frame for frame, _ in render_frames(spec)]
 
     extractor, tracker = VehicleRoiExtractor(), StoppedVehicleTracker()
@@ -69,7 +68,7 @@ def main() -> None:
     stages = {
         "render road (scene background)": _time_ms(lambda: render_road(camera, spec.layout, np.random.default_rng(0)), args.repeats),
         "render car over the road (supersampled, shadow)": _time_ms(
-            lambda: render_car(model, model.palette[0][1], spec.target_pose, camera, road), args.repeats
+            lambda: render_car(car.model, car.paint[1], car.target_pose, camera, road), args.repeats
         ),
         "lane-marker detection": _time_ms(lambda: detect_markers(road), args.repeats),
         "calibration (match, RANSAC, edge refinement)": _time_ms(lambda: calibrate(markers, site, image_bgr=road), args.repeats),

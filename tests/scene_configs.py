@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 
 from hydra import compose, initialize_config_dir
 from omegaconf import OmegaConf
@@ -15,6 +14,7 @@ TABLE2_SCENES = (
     "table2_middle_0", "table2_middle_30", "table2_middle_minus30",
     "table2_close_0", "table2_close_30", "table2_close_minus30",
 )
+PLATE_SCENES = tuple(f"table2_plate_{distance}_{angle}" for distance in ("middle", "close") for angle in ("0", "30", "minus30"))
 
 
 def scene_spec(name: str, **overrides: object) -> SceneSpec:
@@ -22,3 +22,8 @@ def scene_spec(name: str, **overrides: object) -> SceneSpec:
         cfg = compose(config_name="scene", overrides=[f"scene={name}", "out=unused"])
     spec = SceneSpec.from_dict(OmegaConf.to_container(cfg.scene, resolve=True))
     return dataclasses.replace(spec, **overrides)
+
+
+def short_scene(name: str, **overrides: object) -> SceneSpec:
+    """A scene with few frames (1 empty, 4 driving, 1 stopped) for fast tests; `overrides` replace settings."""
+    return scene_spec(name, **{"empty_frames": 1, "drive_frames": 4, "stopped_frames": 1, **overrides})

@@ -120,7 +120,8 @@ def test_labels_hold_the_true_viewpoint_and_the_tight_box(demo_root: Path) -> No
 def test_same_seed_same_bytes_whatever_the_workers(demo_root: Path, tmp_path: Path) -> None:
     again = make_demo_set(tmp_path / "again", per_model=PER_MODEL, seed=3, workers=1)
     reference = _tree_bytes(demo_root)
-    assert len(reference) == 2 * PER_MODEL * len(CATALOG) + 6
+    # images and labels, plus the marker, specs, attributes, model names, vehicle shapes and two splits
+    assert len(reference) == 2 * PER_MODEL * len(CATALOG) + 7
     assert _tree_bytes(again) == reference
     other = make_demo_set(tmp_path / "other", per_model=2, seed=4, workers=1)
     other_bytes = _tree_bytes(other)

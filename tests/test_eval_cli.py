@@ -83,7 +83,7 @@ def test_checkpoint_of_another_class_count_is_refused_and_left_intact(trained: d
                       cwd=tmp_path)
     assert result.returncode == 1
     lines = [line for line in result.stderr.splitlines() if line.startswith("vehloc-eval: error:")]
-    assert len(lines) == 1 and "checkpoint has 3 classes" in lines[0] and "the data set has 2" in lines[0]
+    assert len(lines) == 1 and "checkpoint has 3 classes" in lines[0] and "has 2 (model ids" in lines[0]
     assert "Traceback" not in result.stderr
     assert hashlib.sha256(trained["best"].read_bytes()).hexdigest() == digest
 

@@ -49,7 +49,7 @@ def test_calibrate_writes_calibration_and_overlay(road_and_site: tuple[Path, Pat
         ("image={missing}", "video does not exist"),
         ("image={corrupt}", "not a readable video"),
         ("site={missing_site}", "site file does not exist"),
-        ("mode=magic", "mode must be 'detect' or 'guess'"),
+        ("mode=magic", "mode: expected one of detect, guess, got 'magic'"),
     ],
 )
 def test_calibrate_bad_input_is_one_line_and_exit_1(
@@ -91,11 +91,20 @@ def test_median_background_removes_traffic(shared_data: Path) -> None:
 def test_scene_cli_writes_video_truth_and_site(tmp_path: Path) -> None:
     run = _run(
         "vehloc.synth.scene_cli", "scene=table2_close_0", f"out={tmp_path}",
-        "scene.empty_frames=3", "scene.drive_frames=4", "scene.stopped_frames=2", "scene.approach_mm=3000",
+        "scene.empty_frames=3", "scene.drive_frames=4", "scene.stopped_frames=2", "scene.cars.0.approach_mm=3000",
     )
     assert run.returncode == 0, run.stderr
     truth = json.loads((tmp_path / "ground_truth.json").read_text())
     frames = list(iter_frames(tmp_path / "video.avi"))
     assert len(frames) == truth["frames"] == 9 and frames[0].shape == (720, 1280, 3)
-    assert truth["car"]["pose"] == {"x_mm": 194.0, "y_mm": 4060.0, "heading_deg": -2.07}
+    (car,) = truth["cars"]
+    assert car["target_pose"] == {"x_mm": 194.0, "y_mm": 4060.0, "heading_deg": -2.07} and car["stop_frame"] == 7
+    assert car["boxes_xyxy_px"][2] is None and car["boxes_xyxy_px"][-1] is not None
     assert (tmp_path / "site.yaml").is_file()
+    assert not [path for path in tmp_path.iterdir() if path.name.startswith(".")]  # no temporary file left
+
+
+def test_scene_cli_names_a_bad_car_setting(tmp_path: Path) -> None:
+    run = _run("vehloc.synth.scene_cli", "scene=two_cars", f"out={tmp_path}", "scene.cars.1.model_id=99")
+    assert run.returncode == 1
+    assert run.stderr.strip() == "vehloc-scene: error: scene.cars[1]: model_id 99 is not a catalog model (1 to 12)"

@@ -14,6 +14,7 @@ import pytest
 from onnx import TensorProto, helper
 
 from vehloc.data.compcars import read_compcars
+from vehloc.data.shapes import SHAPES_FILE, read_shapes
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.infer.export import ExportError, export_checkpoint, file_sha256
 from vehloc.infer.metadata import ModelFileError
@@ -186,12 +187,14 @@ def test_predict_cli_crops_whole_compcars_images_to_their_labels(
     assert exit_info.value.code == 1
     err = capsys.readouterr().err
     assert "vehloc-predict: error:" in err and str(tmp_path / "label" / "1" / "1" / "2013" / "0000.txt") in err
+    loose = tmp_path / "loose.jpg"
+    loose.write_bytes(samples[0].image_path.read_bytes())
     with pytest.raises(SystemExit):
-        predict_main([*argv, str(tmp_path / "loose.jpg")])
+        predict_main([*argv, str(loose)])
     assert "not under an image/ folder" in capsys.readouterr().err
 
 
-def test_export_cli(trained: tuple[Path, Path], tmp_path: Path) -> None:
+def test_export_cli(trained: tuple[Path, Path], exported: tuple[Path, object], tmp_path: Path) -> None:
     root, checkpoint = trained
     run = subprocess.run(
         [sys.executable, "-m", "vehloc.infer.export_cli", f"ckpt_path={checkpoint}", f"output={tmp_path / 'm.onnx'}",
@@ -200,6 +203,13 @@ def test_export_cli(trained: tuple[Path, Path], tmp_path: Path) -> None:
     )
     assert run.returncode == 0, run.stderr
     assert "same top-1 on 100%" in run.stdout and (tmp_path / "m.onnx").is_file()
+    metadata = VehicleClassifier.from_onnx(tmp_path / "m.onnx").metadata
+    shapes = read_shapes(root / SHAPES_FILE)
+    assert sorted(metadata.shapes) == sorted(c.model_id for c in metadata.classes) == sorted(shapes)
+    np.testing.assert_allclose(metadata.shape_of(1).points_mm, shapes[1].points_mm, atol=0.05)  # 0.1 mm rounding
+    without = VehicleClassifier.from_onnx(exported[0]).metadata  # exported without shapes: the cuboids
+    spec = without.classes[0]
+    np.testing.assert_allclose(np.ptp(without.shape_of(spec.model_id).points_mm, axis=0), spec.dims_mm)
     missing = subprocess.run(
         [sys.executable, "-m", "vehloc.infer.export_cli", f"ckpt_path={tmp_path / 'none.ckpt'}", f"hydra.run.dir={tmp_path / 'run2'}"],
         capture_output=True, text=True,

@@ -21,12 +21,14 @@ COPY_IGNORED = (".git", ".venv", "demo_data", "logs", "outputs", "multirun", "bu
 
 
 def test_every_config_group_is_packaged():
-    """Each folder of conf/ is a data subpackage of vehloc.conf in pyproject.toml."""
+    """Each folder of conf/ (at any depth) is a data subpackage of vehloc.conf in pyproject.toml."""
     import tomllib
 
     packages = set(tomllib.loads((PROJECT_ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
-    groups = {f"vehloc.conf.{p.name}" for p in config_dir().iterdir() if p.is_dir() and p.name != "__pycache__"}
-    assert groups and groups <= packages
+    root = config_dir()
+    groups = {"vehloc.conf." + ".".join(p.relative_to(root).parts) for p in root.rglob("*")
+              if p.is_dir() and "__pycache__" not in p.parts}
+    assert "vehloc.conf.localize.roi" in groups and groups <= packages
 
 
 @pytest.mark.slow

@@ -22,7 +22,7 @@ HAND_BOXES = {
 def test_roi_finds_the_annotated_cars(shared_data: Path) -> None:
     """Tolerance: each annotated car overlaps one ROI box with IoU >= 0.6 (annotation +-2 px, and
     the ROI keeps some of the car's shadow)."""
-    extractor = VehicleRoiExtractor(RoiParams.from_config(close_kernel_px=5))
+    extractor = VehicleRoiExtractor(RoiParams.from_config(scale=1.0, close_kernel_px=5))
     found = {}
     for index, frame in enumerate(iter_frames(shared_data / "traffic" / "highway_320x240.avi")):
         boxes = extractor.apply(frame)

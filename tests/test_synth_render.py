@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import pytest
 
@@ -10,7 +11,11 @@ from vehloc.geometry.camera import NEAR_PLANE_MM, PinholeCamera, clip_to_near_pl
 from vehloc.synth.catalog import model_by_id
 from vehloc.synth.render import (
     CarPose,
+    Lighting,
+    _projected_faces,
+    _rasterise,
     fill_world_polygon,
+    footprint_car_mm,
     render_car,
 )
 
@@ -135,3 +140,67 @@ def test_near_plane_clipping_and_road_polygons() -> None:
     outside = camera.project([[2500.0, 0.0, 0.0]])[0]
     assert image[int(round(outside[1])), int(round(outside[0]))] == 0.0
     assert image[0].max() == 0.0  # nothing above the horizon
+
+
+def test_plate_truth_lies_on_the_rendered_plate() -> None:
+    """Seen from 20 deg off the front: the front plate faces the camera, the rear one does not, and the
+    projected front plate is the light plate of the render: within the car, with bright pixels (plate)
+    where the same quad one plate-height lower has none."""
+    model = model_by_id(9)
+    pose = CarPose(0.0, 0.0, 0.0)
+    camera = _camera_around(pose, 20.0, 15.0, 7000.0, focal_px=500.0)
+    render = render_car(model, (60, 60, 160), pose, camera, _uniform(90), shadow_strength=0.0)
+    front, rear = render.plates["front"], render.plates["rear"]
+    assert front.faces_camera and not rear.faces_camera
+    np.testing.assert_allclose(front.corners_px, camera.project(front.corners_mm), atol=1e-9)
+    grey = render.image_bgr.mean(axis=2)
+
+    def quad(corners_px: np.ndarray) -> np.ndarray:
+        inside = np.zeros(render.mask.shape, np.uint8)
+        cv2.fillConvexPoly(inside, np.round(corners_px).astype(np.int32), 1)
+        return inside > 0
+
+    plate, below = quad(front.corners_px), quad(camera.project(front.corners_mm - [0.0, 0.0, 140.0]))
+    assert plate.sum() > 150 and render.mask[plate].all()
+    assert np.mean(grey[plate] > 150) > 0.10 and np.mean(grey[below] > 150) < 0.02
+
+
+def _full_frame_render(
+    model_id: int, pose: CarPose, camera: PinholeCamera, background: np.ndarray
+) -> tuple[np.ndarray, Box | None]:
+    """The car drawn as before the renderer kept to the car's region: a supersampled layer of the whole
+    frame, and both shadows filled and blurred over the whole frame."""
+    model, lighting, strength = model_by_id(model_id), Lighting(), 0.55
+    faces = _projected_faces(model, WHITE_RGB, pose, camera, lighting)
+    car_bgr, coverage = _rasterise(faces, Box(0, 0, camera.width_px, camera.height_px), 3)
+    image = background.astype(np.float32)
+    light = np.asarray(lighting.direction)
+    away_mm = -light[:2] / np.linalg.norm(light[:2]) * min(0.35 / max(light[2], 0.25), 1.2) * 400.0
+    for scale, shift, blur_frac, weight in ((1.08, 1.0, 0.05, strength), (0.96, 0.0, 0.02, strength * 0.7)):
+        shadow = np.zeros(background.shape[:2], np.float32)
+        corners = pose.car_to_world(footprint_car_mm(model) * [scale, scale, 0.0])
+        corners[:, :2] += away_mm * shift
+        fill_world_polygon(shadow, camera, corners, (1.0,))
+        if shadow.any():
+            box = Box.tight(shadow > 0)
+            shadow = cv2.GaussianBlur(shadow, (0, 0), max(1.0, blur_frac * max(box.width_px - 1, box.height_px - 1)))
+            image *= (1.0 - weight * shadow)[:, :, None]
+    image = image * (1.0 - coverage[:, :, None]) + car_bgr
+    return np.clip(np.round(image), 0, 255).astype(np.uint8), Box.tight(coverage >= 0.5)
+
+
+@pytest.mark.parametrize(
+    ("model_id", "pose"),
+    [(9, CarPose(548.0, 4147.0, 23.92)), (12, CarPose(-4800.0, 2500.0, 80.0)), (4, CarPose(6800.0, 6000.0, 10.0)),
+     (11, CarPose(0.0, 30000.0, -90.0))],
+    ids=["inside", "cut_left_bottom", "cut_right", "far"],
+)
+def test_drawing_only_the_cars_region_equals_the_full_frame_render(model_id: int, pose: CarPose) -> None:
+    """Over a textured road seen by the Table 2 camera (at half size), the render restricted to the car's
+    and its shadow's region equals the full-frame render within 1 grey level everywhere, with the same box."""
+    camera = PinholeCamera.look_at([0.0, -6000.0, 6500.0], [0.0, 9000.0, 0.0], 500.0, 640, 360)
+    background = np.random.default_rng(0).integers(60, 200, (360, 640, 3), dtype=np.uint8)
+    render = render_car(model_by_id(model_id), WHITE_RGB, pose, camera, background)
+    reference, box = _full_frame_render(model_id, pose, camera, background)
+    assert np.abs(render.image_bgr.astype(int) - reference).max() <= 1
+    assert render.box == box is not None

@@ -47,10 +47,11 @@ def test_roi_of_the_stopped_car(name: str) -> None:
     spec = scene_spec(name, drive_frames=40, stopped_frames=25)
     extractor, tracker = VehicleRoiExtractor(), StoppedVehicleTracker()
     stops = []
-    for frame_index, (frame, true_box) in enumerate(render_frames(spec)):
+    for frame_index, (frame, (true_box,)) in enumerate(render_frames(spec)):
         for track in tracker.update(extractor.apply(frame), frame_index):
             stops.append((frame_index, track.box.iou(true_box)))
     assert len(stops) == 1, stops
     frame_index, iou = stops[0]
-    assert spec.stop_frame <= frame_index <= spec.stop_frame + 20
+    stop_frame = spec.stop_frame(spec.cars[0])
+    assert stop_frame <= frame_index <= stop_frame + 20
     assert iou >= 0.85

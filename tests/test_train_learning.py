@@ -1,5 +1,6 @@
-"""Learning end to end on CPU (slow): GoogLeNet from scratch on the demo set, and the ImageNet
-EfficientNet-Lite0 fine-tuned on the real 12-model Stanford Cars subset."""
+"""Learning end to end on CPU (slow): the ImageNet EfficientNet-Lite0 fine-tuned on the real 12-model Stanford
+Cars subset. (The demo classifier's full run, GoogLeNet from scratch, is `make demo`'s and reports its figure;
+`test_train_run.py` holds the short check that it learns: one batch overfitted.)"""
 
 from __future__ import annotations
 
@@ -12,20 +13,6 @@ from vehloc.train.instantiate import compose_config
 from vehloc.train.train import train
 
 PROJECT_ROOT = Path(__file__).resolve().parents[1]
-
-
-@pytest.mark.slow
-def test_demo_experiment_reaches_90_percent(tmp_path: Path):
-    """GoogLeNet from scratch on the demo set of `make demo` (chance: 8.3 % top-1, 41.7 % top-5), the best
-    epoch picked on a validation share of train, scored on the unseen test split."""
-    from vehloc.synth.demo_set import make_demo_set
-
-    root = make_demo_set(tmp_path / "demo", per_model=240, seed=0, workers=2)
-    cfg = compose_config("train", ["experiment=demo", f"data.root={root}"], tmp_path / "run")
-    metrics, _ = train(cfg)
-    assert metrics["test/acc"] >= 0.90 and metrics["test/acc_top5"] >= 0.98
-    table1 = pd.read_csv(tmp_path / "run" / "table1" / "table1.csv")
-    assert len(table1) == 12 and table1["images"].sum() == 720
 
 
 @pytest.mark.slow

@@ -6,6 +6,7 @@ against the dataclass's annotations, so a wrong setting is named in one line bef
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import math
 import types
@@ -26,6 +27,39 @@ class ConfigError(VehlocError):
     """A setting is unknown, missing, of the wrong type or out of range."""
 
 
+class SettingError(ValueError):
+    """Raised by a parameter dataclass's `__post_init__` for one bad setting; `build_params` names it in full
+    (`data.batch_size: must be >= 1, got 0`)."""
+
+    def __init__(self, setting: str, message: str) -> None:
+        super().__init__(f"{setting}: {message}")
+        self.setting = setting
+        self.message = message
+
+
+def check_range(
+    name: str, value: float, low: float | None = None, high: float | None = None,
+    low_open: bool = False, high_open: bool = False,
+) -> None:
+    """SettingError unless `low <= value <= high` (`<` on an open side; None: unbounded)."""
+    too_low = low is not None and (value <= low if low_open else value < low)
+    too_high = high is not None and (value >= high if high_open else value > high)
+    if too_low or too_high:
+        if low is not None and high is not None:
+            bounds = f"in {'(' if low_open else '['}{low:g}, {high:g}{')' if high_open else ']'}"
+        elif low is not None:
+            bounds = f"{'>' if low_open else '>='} {low:g}"
+        else:
+            bounds = f"{'<' if high_open else '<='} {high:g}"
+        raise SettingError(name, f"must be {bounds}, got {value!r}")
+
+
+def check_choice(name: str, value: object, choices: tuple) -> None:
+    """SettingError unless `value` is one of `choices`."""
+    if value not in choices:
+        raise SettingError(name, f"expected one of {', '.join(map(str, choices))}, got {value!r}")
+
+
 def config_dir() -> Path:
     """The folder of vehloc's Hydra configs: the repository's `conf/`, installed with the package as
     `vehloc.conf` (editable or not)."""
@@ -33,9 +67,12 @@ def config_dir() -> Path:
 
 
 def read_config(relative_path: str) -> dict[str, Any]:
-    """One YAML file of `conf/` as plain data, e.g. `read_config("roi/default.yaml")`."""
+    """One YAML file of `conf/` as plain data, e.g. `read_config("localize/roi/default.yaml")`."""
     path = config_dir() / relative_path
-    content = yaml.safe_load(path.read_text(encoding="utf-8"))
+    try:
+        content = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as err:
+        raise ConfigError(f"{path}: not a readable YAML config ({type(err).__name__})") from None
     if not isinstance(content, dict):
         raise ConfigError(f"{path}: expected a mapping of settings")
     return content
@@ -60,24 +97,31 @@ def _merged(base: dict[str, Any], overrides: dict[str, Any]) -> dict[str, Any]:
 
 def build_params(cls: type[T], values: Mapping[str, Any], where: str) -> T:
     """The dataclass `cls` from a mapping, every value checked against the field's annotation;
-    ConfigError naming the setting (`where.name`) otherwise."""
+    ConfigError naming the setting (`where.name`; `where` "" for top-level settings) otherwise."""
     if not isinstance(values, Mapping):
-        raise ConfigError(f"{where}: expected a mapping of settings, got {values!r}")
+        raise ConfigError(f"{where or 'settings'}: expected a mapping of settings, got {values!r}")
     hints = typing.get_type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
     unknown = sorted(set(values) - set(fields))
     if unknown:
-        raise ConfigError(f"{where}: unknown setting(s) {', '.join(unknown)} (known: {', '.join(fields)})")
+        raise ConfigError(f"{where or 'settings'}: unknown setting(s) {', '.join(unknown)} (known: {', '.join(fields)})")
     required = [name for name, f in fields.items()
                 if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING]
     missing = [name for name in required if name not in values]
     if missing:
-        raise ConfigError(f"{where}: missing setting(s) {', '.join(missing)}")
-    kwargs = {name: _coerce(hints[name], value, f"{where}.{name}") for name, value in values.items()}
+        raise ConfigError(f"{where or 'settings'}: missing setting(s) {', '.join(missing)}")
+    kwargs = {name: _coerce(hints[name], value, _joined(where, name)) for name, value in values.items()}
     try:
         return cls(**kwargs)
+    except SettingError as err:
+        raise ConfigError(f"{_joined(where, err.setting)}: {err.message}") from None
     except ValueError as err:
-        raise ConfigError(f"{where}: {err}") from None
+        raise ConfigError(f"{where or 'settings'}: {err}") from None
+
+
+def _joined(where: str, name: str) -> str:
+    """`where.name`, or `name` for the top level (`where` "")."""
+    return f"{where}.{name}" if where else name
 
 
 def _coerce(annotation: Any, value: Any, where: str) -> Any:
@@ -120,3 +164,28 @@ def _coerce(annotation: Any, value: Any, where: str) -> Any:
             raise ConfigError(f"{where}: expected a string, got {value!r}")
         return value
     return value
+
+
+class ArgumentParser(argparse.ArgumentParser):
+    """argparse for vehloc's console scripts: a bad argument is one line, `<prog>: error: <what>`, exit code 2
+    (without argparse's usage block; `--help` shows it)."""
+
+    def error(self, message: str) -> typing.NoReturn:
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def integer_argument(low: int | None = None, high: int | None = None) -> typing.Callable[[str], int]:
+    """An argparse `type` for an integer in [low, high]; its error names the value and the range."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+        if (low is not None and value < low) or (high is not None and value > high):
+            bounds = f">= {low}" if high is None else f"<= {high}" if low is None else f"from {low} to {high}"
+            raise argparse.ArgumentTypeError(f"expected an integer {bounds}, got {value}")
+        return value
+
+    parse.__name__ = "integer"
+    return parse

@@ -1,8 +1,18 @@
-"""Errors that vehloc reports to users as one clear line and a non-zero exit."""
+"""Errors that vehloc reports to users as one clear line and a non-zero exit, and the console scripts' way of
+ending: `<prog>: error: <what is wrong>` and exit code 1 for bad input, `<prog>: interrupted` and exit code
+130 for Ctrl-C, never a traceback for either."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import functools
+import os
+import re
+import sys
+from collections.abc import Callable, Sequence
+from typing import Any
+
+INTERRUPTED_EXIT_CODE = 130
+"""The shell's code for a process ended by SIGINT (128 + 2)."""
 
 
 class VehlocError(Exception):
@@ -22,10 +32,20 @@ class DataError(VehlocError):
         super().__init__("\n".join(lines))
 
 
+def _report(prog: str, message: str) -> None:
+    sys.stdout.flush()
+    print(f"{prog}: {message}", file=sys.stderr, flush=True)
+
+
+def os_error_line(exc: OSError) -> str:
+    """`<file>: <what the system said>` for an OSError about a file (a full disk, a read-only file system)."""
+    return f"{exc.filename}: {exc.strerror or type(exc).__name__}"
+
+
 def exit_on_error(prog: str):
-    """Decorate a console-script main: a VehlocError becomes its message on stderr and exit code 1."""
-    import functools
-    import sys
+    """Decorate a console-script main: a VehlocError becomes its message on stderr and exit code 1, as does an
+    OSError about a file (the file and the system's reason); Ctrl-C (KeyboardInterrupt) becomes
+    `<prog>: interrupted` and exit code 130."""
 
     def decorate(main):
         @functools.wraps(main)
@@ -33,8 +53,84 @@ def exit_on_error(prog: str):
             try:
                 return main(*args, **kwargs)
             except VehlocError as exc:
-                print(f"{prog}: error: {exc}", file=sys.stderr)
+                _report(prog, f"error: {exc}")
                 raise SystemExit(1) from None
+            except OSError as exc:
+                if not exc.filename:
+                    raise
+                _report(prog, f"error: {os_error_line(exc)}")
+                raise SystemExit(1) from None
+            except KeyboardInterrupt:
+                _report(prog, "interrupted")
+                raise SystemExit(INTERRUPTED_EXIT_CODE) from None
+
+        return wrapper
+
+    return decorate
+
+
+def hydra_error_line(exc: BaseException) -> str:
+    """One line for an error Hydra or OmegaConf raises while composing a config (an unknown key, a malformed
+    override, a missing config group option) or while preparing the run folder."""
+    from hydra.errors import MissingConfigException
+    from omegaconf.errors import OmegaConfBaseException
+
+    missing = re.search(r"Missing mandatory value: ([\w.]+)", str(exc))
+    if missing:
+        return f"{missing.group(1)}=... is required (it has no value)"
+    if isinstance(exc, OSError) and exc.filename and not isinstance(exc, MissingConfigException):
+        if isinstance(exc, FileExistsError):
+            return f"{exc.filename}: exists and is not a folder; the run's outputs need a folder there"
+        return f"{exc.filename}: cannot create the run folder or write into it ({exc.strerror})"
+    lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+    message = lines[0].rstrip(".") if lines else type(exc).__name__
+    if isinstance(exc, MissingConfigException) and exc.options:
+        message += f" (options: {', '.join(exc.options)})"
+    cause = exc.__cause__
+    if isinstance(cause, OmegaConfBaseException):
+        cause_lines = [line.strip() for line in str(cause).splitlines() if line.strip()]
+        if cause_lines and cause_lines[0] not in message:
+            message += f": {cause_lines[0]}"
+        if "is not in struct" in message:
+            message += " (no such setting)"
+    elif not isinstance(exc, MissingConfigException) and len(lines) > 1 and not lines[1].startswith(("^", "$")):
+        message += f": {lines[1]}"
+    return message
+
+
+def hydra_main(prog: str, config_path: str, config_name: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """`hydra.main` for a console script whose Hydra errors end like vehloc's own: a bad override, an unknown
+    key or config option, a run folder that cannot be created each give `<prog>: error: ...` in one line and
+    exit code 1; Ctrl-C while Hydra composes gives `<prog>: interrupted` and 130. The task function should
+    itself be decorated with `exit_on_error(prog)`. With HYDRA_FULL_ERROR=1 set by the user, Hydra's own
+    reports are kept."""
+
+    def decorate(task: Callable[..., Any]) -> Callable[..., Any]:
+        import hydra
+
+        hydra_task = hydra.main(version_base="1.3", config_path=config_path, config_name=config_name)(task)
+
+        @functools.wraps(hydra_task)
+        def wrapper(*args, **kwargs):
+            from hydra.errors import HydraException
+            from omegaconf.errors import OmegaConfBaseException
+
+            user_wants_traces = os.environ.get("HYDRA_FULL_ERROR") == "1"
+            os.environ["HYDRA_FULL_ERROR"] = "1"  # Hydra raises instead of printing its report, so it ends here
+            try:
+                return hydra_task(*args, **kwargs)
+            except (HydraException, OmegaConfBaseException, OSError) as exc:
+                hydra_own = isinstance(exc, (HydraException, OmegaConfBaseException))
+                if user_wants_traces or not (hydra_own or exc.filename):
+                    raise
+                _report(prog, f"error: {hydra_error_line(exc)}")
+                raise SystemExit(1) from None
+            except KeyboardInterrupt:
+                _report(prog, "interrupted")
+                raise SystemExit(INTERRUPTED_EXIT_CODE) from None
+            finally:
+                if not user_wants_traces:
+                    os.environ.pop("HYDRA_FULL_ERROR", None)
 
         return wrapper
 

@@ -37,7 +37,7 @@ SHOWN_FRAMES = (300, 500, 800, 1200, 1500, 1650)
 
 def run_roi(out_dir: Path) -> tuple[pd.DataFrame, int]:
     """Boxes of every frame and the frame count; a picture of the frames in SHOWN_FRAMES with their boxes."""
-    extractor = VehicleRoiExtractor(RoiParams.from_config(close_kernel_px=5))
+    extractor = VehicleRoiExtractor(RoiParams.from_config(scale=1.0, close_kernel_px=5))
     rows, shown = [], []
     for index, frame in enumerate(iter_frames(VIDEO)):
         boxes = extractor.apply(frame)

@@ -6,6 +6,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from vehloc.data.text import read_text
 from vehloc.errors import DataError
 
 HEADER = ("model_id", "maximum_speed", "displacement", "door_number", "seat_number", "type")
@@ -31,7 +32,7 @@ def read_attributes(path: Path) -> dict[int, ModelAttributes]:
     """Read attributes.txt (header line, then one whitespace-separated row per model)."""
     rows: dict[int, ModelAttributes] = {}
     problems = []
-    for line_no, raw in enumerate(path.read_text().splitlines(), start=1):
+    for line_no, raw in enumerate(read_text(path).splitlines(), start=1):
         fields = raw.split()
         if not fields or (line_no == 1 and fields[0] == HEADER[0]):
             continue

@@ -13,6 +13,8 @@ from vehloc.errors import DataError
 
 
 def _check(args: argparse.Namespace) -> int:
+    if args.specs is not None and not args.specs.is_file():
+        raise DataError(f"--specs {args.specs}: " + ("is a folder" if args.specs.is_dir() else "no such file"))
     result = scan_compcars(args.root)
     problems = list(result.problems)
     if result.dataset is not None:

@@ -18,12 +18,13 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from vehloc.data.attributes import ModelAttributes, read_attributes
 from vehloc.data.boxes import Box
 from vehloc.data.matfile import read_make_model_names
+from vehloc.data.preprocess import ImageInputError, read_bgr
+from vehloc.data.text import TextFileError, read_text
 from vehloc.errors import DataError
 
 VIEWPOINT_NAMES: dict[int, str] = {
@@ -154,14 +155,21 @@ def parse_label(text: str) -> tuple[int, Box]:
     return viewpoint, Box.from_compcars_label(x1, y1, x2, y2)
 
 
-def _read_split(root: Path, split: str, problems: list[str]) -> list[CompCarsSample]:
+def _read_split(root: Path, split: str, problems: list[str]) -> list[CompCarsSample] | None:
+    """The samples of a split list, every problem appended to `problems`; None when the list itself is
+    missing or unreadable."""
     split_path = root / SPLIT_DIR / f"{split}.txt"
     if not split_path.is_file():
         problems.append(f"{split_path}: split list missing")
-        return []
+        return None
+    try:
+        text = read_text(split_path)
+    except TextFileError as err:
+        problems.append(str(err))
+        return None
     samples = []
     seen: set[str] = set()
-    for line_no, raw in enumerate(split_path.read_text().splitlines(), start=1):
+    for line_no, raw in enumerate(text.splitlines(), start=1):
         line = raw.strip()
         if not line:
             continue
@@ -184,8 +192,11 @@ def _read_split(root: Path, split: str, problems: list[str]) -> list[CompCarsSam
             problems.append(f"{where}: label {label_path} missing")
             continue
         try:
-            viewpoint, box = parse_label(label_path.read_text())
-        except (ValueError, UnicodeDecodeError) as exc:
+            viewpoint, box = parse_label(read_text(label_path))
+        except TextFileError as exc:
+            problems.append(f"{exc} (a label file)")
+            continue
+        except ValueError as exc:
             problems.append(f"{label_path}: malformed label: {exc}")
             continue
         samples.append(
@@ -201,19 +212,21 @@ def scan_compcars(root: Path | str) -> ScanResult:
         return ScanResult(None, [f"{root}: data root does not exist or is not a folder"], [])
     problems: list[str] = []
     warnings: list[str] = []
-    train = _read_split(root, "train", problems)
-    test = _read_split(root, "test", problems)
+    train_read = _read_split(root, "train", problems)
+    test_read = _read_split(root, "test", problems)
+    train, test = train_read or [], test_read or []
     model_ids = tuple(sorted({s.model_id for s in train}))
-    test_only = sorted({s.model_id for s in test} - set(model_ids))
     split_path = root / SPLIT_DIR / "test.txt"
-    for model_id in test_only:
-        first = next(s for s in test if s.model_id == model_id)
-        problems.append(f"{split_path}: model {model_id} ({first.rel_path}) is absent from train")
+    if train_read is not None:  # when the train list itself is unreadable, that is the one problem to name
+        test_only = sorted({s.model_id for s in test} - set(model_ids))
+        for model_id in test_only:
+            first = next(s for s in test if s.model_id == model_id)
+            problems.append(f"{split_path}: model {model_id} ({first.rel_path}) is absent from train")
+        if not train:
+            problems.append(f"{root / SPLIT_DIR / 'train.txt'}: no usable images")
     overlap = sorted({s.rel_path for s in train} & {s.rel_path for s in test})
     for rel_path in overlap:
         problems.append(f"{split_path}: {rel_path} is listed in both train and test")
-    if not train and (root / SPLIT_DIR / "train.txt").is_file():
-        problems.append(f"{root / SPLIT_DIR / 'train.txt'}: no usable images")
 
     make_names: dict[int, str] = {}
     model_names: dict[int, str] = {}
@@ -250,12 +263,14 @@ def read_compcars(root: Path | str) -> CompCarsSet:
 
 
 def check_images(samples: Sequence[CompCarsSample]) -> list[str]:
-    """Decode every image; report unreadable ones and boxes that leave the image."""
+    """Decode every image with the one image reader (which also finds truncated and corrupt files); report
+    unreadable ones and boxes that leave the image."""
     problems = []
     for sample in samples:
-        image = cv2.imread(str(sample.image_path), cv2.IMREAD_COLOR)
-        if image is None:
-            problems.append(f"{sample.image_path}: not a readable image")
+        try:
+            image = read_bgr(sample.image_path, strict=True)
+        except ImageInputError as err:
+            problems.append(str(err))
             continue
         height_px, width_px = image.shape[:2]
         if sample.box.clipped(width_px, height_px) != sample.box:

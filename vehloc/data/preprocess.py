@@ -7,6 +7,11 @@ the onnxruntime classifier all run `Preprocessing.to_input`, NumPy and OpenCV on
 
 from __future__ import annotations
 
+import os
+import sys
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -24,16 +29,77 @@ class ImageInputError(VehlocError):
     """An image is missing, cannot be decoded, or is not a usable colour image."""
 
 
-def read_bgr(path: str | Path) -> np.ndarray:
+JPEG_START = b"\xff\xd8"
+JPEG_END = b"\xff\xd9"
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+PNG_END = b"IEND\xaeB`\x82"
+DECODER_WARNINGS = ("Corrupt JPEG data", "Premature end of JPEG file", "libpng error", "libpng warning")
+
+
+def truncation_problem(data: bytes) -> str | None:
+    """Why an encoded image is incomplete, or None: a JPEG must end with its end-of-image marker FF D9 (after
+    any zero padding), a PNG with its IEND chunk. Decoders fill the missing part of a truncated file with grey
+    and only print a warning, so a cut download would otherwise be classified as if it were whole."""
+    if data.startswith(JPEG_START):
+        if not data.rstrip(b"\x00").endswith(JPEG_END):
+            return "truncated JPEG: it does not end with the end-of-image marker FF D9"
+    elif data.startswith(PNG_SIGNATURE):
+        if not data.rstrip(b"\x00").endswith(PNG_END):
+            return "truncated PNG: it does not end with the IEND chunk"
+    return None
+
+
+@contextmanager
+def _captured_stderr() -> Iterator[list[str]]:
+    """What native code (libjpeg, libpng) writes to the process's stderr inside the block, collected into the
+    yielded list when the block ends (file descriptor 2 goes to a temporary file meanwhile)."""
+    messages: list[str] = []
+    sys.stderr.flush()
+    with tempfile.TemporaryFile() as capture:
+        saved = os.dup(2)
+        os.dup2(capture.fileno(), 2)
+        try:
+            yield messages
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            capture.seek(0)
+            messages.extend(capture.read().decode("utf-8", "replace").splitlines())
+
+
+def decode_image(data: bytes, source: str, strict: bool = False) -> np.ndarray:
+    """Encoded image bytes as a BGR uint8 (H, W, 3) array; ImageInputError naming `source` when they are not a
+    decodable image or a truncated one. `strict` also fails on a warning of the JPEG or PNG decoder (corrupt
+    data it decoded around)."""
+    problem = truncation_problem(data)
+    if problem:
+        raise ImageInputError(f"{source}: {problem}")
+    buffer = np.frombuffer(data, np.uint8)
+    if strict:
+        with _captured_stderr() as messages:
+            image = cv2.imdecode(buffer, cv2.IMREAD_COLOR)
+        warnings = [m.strip() for m in messages if m.strip().startswith(DECODER_WARNINGS)]
+        if image is not None and warnings:
+            raise ImageInputError(f"{source}: corrupt image data (the decoder says: {warnings[0]})")
+    else:
+        image = cv2.imdecode(buffer, cv2.IMREAD_COLOR)
+    if image is None:
+        raise ImageInputError(f"{source}: not a readable image")
+    return image
+
+
+def read_bgr(path: str | Path, strict: bool = False) -> np.ndarray:
     """An image file as a BGR uint8 (H, W, 3) array (alpha dropped, grey expanded); ImageInputError naming the
-    file when it is missing or not a decodable image."""
+    file when it is missing, not a decodable image, or truncated (see `decode_image`; `strict` also fails on
+    the decoder's warnings)."""
     path = Path(path)
     if not path.is_file():
-        raise ImageInputError(f"{path}: image does not exist")
-    image = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    if image is None:
-        raise ImageInputError(f"{path}: not a readable image")
-    return image
+        raise ImageInputError(f"{path}: image does not exist" + (" (it is a folder)" if path.is_dir() else ""))
+    try:
+        data = path.read_bytes()
+    except OSError as err:
+        raise ImageInputError(f"{path}: cannot be read ({err.strerror})") from None
+    return decode_image(data, str(path), strict)
 
 
 def enlarged_roi(image: np.ndarray, box: Box, enlarge_fraction: float) -> np.ndarray:

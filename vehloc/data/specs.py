@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import csv
+import io
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from vehloc.data.text import read_text
 from vehloc.errors import DataError
 
 REQUIRED_COLUMNS = ("model_id", "make", "model", "length_mm", "width_mm", "height_mm")
@@ -109,11 +111,12 @@ def _parse_row(row: dict[str, str], where: str, problems: list[str]) -> VehicleS
 
 
 def read_specs_csv(path: Path | str) -> SpecsTable:
-    """Read and validate a specs CSV; raise DataError listing every problem with its line."""
+    """Read and validate a specs CSV (UTF-8, a byte-order mark accepted); raise DataError listing every problem
+    with its line."""
     path = Path(path)
     if not path.is_file():
         raise DataError(f"{path}: specs table does not exist")
-    with path.open(newline="") as handle:
+    with io.StringIO(read_text(path), newline="") as handle:
         reader = csv.DictReader(handle)
         missing = [c for c in REQUIRED_COLUMNS if c not in (reader.fieldnames or [])]
         if missing:

@@ -23,8 +23,9 @@ MOG2_FOREGROUND_VALUE = 255
 
 @dataclass(frozen=True)
 class RoiParams:
-    """Background model and blob filtering."""
+    """Background model and blob filtering (kernel sizes in pixels of the frames as shrunk by `scale`)."""
 
+    scale: float
     history_frames: int
     learning_rate_after_history: float
     mixtures: int
@@ -37,11 +38,19 @@ class RoiParams:
     open_kernel_px: int
     close_kernel_px: int
     min_area_fraction: float
+    background_every_frames: int
+    silhouette_threshold: float
+    silhouette_shadow_ratio: tuple[float, float]
+    silhouette_shadow_window_px: int
+    silhouette_shadow_min_correlation: float
+    silhouette_close_px: int
+    silhouette_doubt_weight: float
+    silhouette_smooth_ratio: float
 
     @classmethod
     def from_config(cls, **overrides: object) -> RoiParams:
-        """The settings of `conf/roi/default.yaml`, with `overrides`."""
-        return params_from_config(cls, "roi/default.yaml", overrides)
+        """The settings of `conf/localize/roi/default.yaml`, with `overrides`."""
+        return params_from_config(cls, "localize/roi/default.yaml", overrides)
 
 
 def local_correlation(image: np.ndarray, reference: np.ndarray, window_px: int) -> tuple[np.ndarray, np.ndarray]:
@@ -54,6 +63,13 @@ def local_correlation(image: np.ndarray, reference: np.ndarray, window_px: int) 
     var_a = np.maximum(cv2.blur(a * a, size) - mean_a**2, 0)
     var_b = np.maximum(cv2.blur(b * b, size) - mean_b**2, 0)
     return cov / np.sqrt(var_a * var_b + 1e-3), np.sqrt(var_b)
+
+
+def local_std(image: np.ndarray, window_px: int) -> np.ndarray:
+    """A grey image's standard deviation over a square window around every pixel."""
+    a = image.astype(np.float32)
+    size = (window_px, window_px)
+    return np.sqrt(np.maximum(cv2.blur(a * a, size) - cv2.blur(a, size) ** 2, 0))
 
 
 def remove_shadows(
@@ -88,6 +104,63 @@ def clean_mask(mask: np.ndarray, params: RoiParams) -> np.ndarray:
     return filled
 
 
+@dataclass(frozen=True, eq=False)
+class Silhouette:
+    """A vehicle's pixels in an ROI (bool mask), how sure each is (1, or `silhouette_doubt_weight` where the
+    pixel is only darker than the road and may be shadow the texture test could not tell), and which are
+    solid: sure, or darker but smooth where the road has texture (a body face, not a shadow on the road)."""
+
+    mask: np.ndarray
+    weights: np.ndarray
+    solid: np.ndarray
+    margin_px: int
+
+    def trimmed(self) -> np.ndarray:
+        """The mask without the pixels below the lowest solid one of each column (within `margin_px`, the
+        texture window's reach): a shadow under the vehicle, which would otherwise pass for its bottom edge."""
+        rows = np.arange(self.mask.shape[0])[:, None]
+        solid = self.solid & self.mask
+        lowest = np.where(solid.any(axis=0), self.mask.shape[0] - 1 - np.argmax(solid[::-1], axis=0), -1)
+        return self.mask & (rows <= lowest[None, :] + self.margin_px)
+
+
+def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: RoiParams) -> Silhouette:
+    """The vehicle's pixels in an ROI at full resolution, against the full-resolution background: colour
+    changed by more than `silhouette_threshold`, except cast shadow (uniformly darker by a ratio within
+    `silhouette_shadow_ratio` with the road's texture showing through), closed, holes filled, the largest
+    blob kept. Darker pixels are solid where their texture is below `silhouette_smooth_ratio` of the road's
+    there (darkened alike): a smooth body face."""
+    frame = roi_bgr.astype(np.float32)
+    background = background_bgr.astype(np.float32)
+    changed = np.abs(frame - background).max(axis=2) > params.silhouette_threshold
+    ratio = (frame.sum(axis=2) + 1.0) / (background.sum(axis=2) + 1.0)
+    low, high = params.silhouette_shadow_ratio
+    darker = (ratio >= low) & (ratio <= high)
+    grey = cv2.cvtColor(roi_bgr, cv2.COLOR_BGR2GRAY)
+    correlation, texture = local_correlation(grey, cv2.cvtColor(background_bgr, cv2.COLOR_BGR2GRAY),
+                                             params.silhouette_shadow_window_px)
+    shadow = darker & (texture >= params.shadow_min_texture) & (correlation >= params.silhouette_shadow_min_correlation)
+    mask = ((changed & ~shadow) * 255).astype(np.uint8)
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (params.silhouette_close_px,) * 2)
+    mask = cv2.morphologyEx(cv2.morphologyEx(mask, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)), cv2.MORPH_CLOSE, kernel)
+    contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    filled = np.zeros_like(mask)
+    if contours:
+        cv2.drawContours(filled, [max(contours, key=cv2.contourArea)], -1, 255, cv2.FILLED)
+    vehicle = filled > 0
+    darker_than_road = ratio <= high
+    window = params.silhouette_shadow_window_px
+    smooth = local_std(grey, window) < params.silhouette_smooth_ratio * ratio * texture
+    return Silhouette(vehicle, np.where(vehicle, np.where(darker_than_road, params.silhouette_doubt_weight, 1.0), 0.0),
+                      vehicle & (~darker_than_road | smooth), window // 2)
+
+
+def scaled_box(box: Box, factor: float, width_px: int, height_px: int) -> Box:
+    """The pixels of a box on an image scaled by `factor`: the smallest box holding them, clipped."""
+    return Box(int(np.floor(box.x0 * factor)), int(np.floor(box.y0 * factor)),
+               int(np.ceil(box.x1 * factor)), int(np.ceil(box.y1 * factor))).clipped(width_px, height_px)
+
+
 def blob_boxes(mask: np.ndarray, min_area_px: int) -> list[Box]:
     """Boxes of the connected components at least `min_area_px` large, largest first."""
     count, _, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
@@ -113,6 +186,9 @@ class VehicleRoiExtractor:
         self.subtractor.setShadowThreshold(self.params.shadow_threshold)
         self.frames_seen = 0
         self.last_mask: np.ndarray | None = None
+        self.last_frame: np.ndarray | None = None
+        self.background: np.ndarray | None = None
+        self.background_samples = 0
 
     @property
     def ready(self) -> bool:
@@ -120,16 +196,48 @@ class VehicleRoiExtractor:
         return self.frames_seen >= self.params.history_frames
 
     def apply(self, frame_bgr: np.ndarray) -> list[Box]:
-        """Update the model with a frame; its vehicle boxes (none while the history is being learnt)."""
+        """Update the model with a frame; its vehicle boxes in frame pixels (none while the history is being
+        learnt)."""
+        scale = self.params.scale
+        small = frame_bgr if scale == 1.0 else cv2.resize(frame_bgr, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
         rate = -1.0 if not self.ready else self.params.learning_rate_after_history
-        raw = self.subtractor.apply(frame_bgr, learningRate=rate)
+        raw = self.subtractor.apply(small, learningRate=rate)
         self.frames_seen += 1
         background = self.subtractor.getBackgroundImage()
-        self.last_mask = clean_mask(remove_shadows(raw, frame_bgr, background, self.params), self.params)
+        self.last_mask = clean_mask(remove_shadows(raw, small, background, self.params), self.params)
         if not self.ready:
             return []
-        height_px, width_px = frame_bgr.shape[:2]
-        return blob_boxes(self.last_mask, int(self.params.min_area_fraction * width_px * height_px))
+        self.last_frame = frame_bgr
+        if (self.frames_seen - 1) % self.params.background_every_frames == 0:
+            self._update_background(frame_bgr)
+        if not self.ready:
+            return []
+        height_px, width_px = small.shape[:2]
+        boxes = blob_boxes(self.last_mask, int(self.params.min_area_fraction * width_px * height_px))
+        frame_height_px, frame_width_px = frame_bgr.shape[:2]
+        return [scaled_box(box, 1.0 / scale, frame_width_px, frame_height_px) for box in boxes]
+
+    def _update_background(self, frame_bgr: np.ndarray) -> None:
+        """The full-resolution background: the running mean of the sampled frames while the history is learnt,
+        then a slow update where the background model sees no vehicle."""
+        self.background_samples += 1
+        if self.background is None:
+            self.background = frame_bgr.astype(np.float32)
+            return
+        if not self.ready:
+            cv2.accumulateWeighted(frame_bgr, self.background, 1.0 / self.background_samples)
+            return
+        still = cv2.resize(self.last_mask, frame_bgr.shape[1::-1], interpolation=cv2.INTER_NEAREST) == 0
+        rate = min(1.0, self.params.learning_rate_after_history * self.params.background_every_frames)
+        cv2.accumulateWeighted(frame_bgr, self.background, rate, still.astype(np.uint8))
+
+    def foreground(self, roi: Box) -> Silhouette:
+        """The last frame's vehicle pixels inside `roi` (frame pixels), at full resolution (see
+        `vehicle_silhouette`)."""
+        if self.last_frame is None or self.background is None:
+            raise RuntimeError("no frame has been applied yet")
+        background = roi.crop(self.background).astype(np.uint8)
+        return vehicle_silhouette(roi.crop(self.last_frame), background, self.params)
 
 
 @dataclass
@@ -157,8 +265,8 @@ class TrackerParams:
 
     @classmethod
     def from_config(cls, **overrides: object) -> TrackerParams:
-        """The settings of `conf/tracker/default.yaml`, with `overrides`."""
-        return params_from_config(cls, "tracker/default.yaml", overrides)
+        """The settings of `conf/localize/tracker/default.yaml`, with `overrides`."""
+        return params_from_config(cls, "localize/tracker/default.yaml", overrides)
 
 
 class StoppedVehicleTracker:

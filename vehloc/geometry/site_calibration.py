@@ -9,7 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from vehloc.atomic import write_image, write_text
+from vehloc.atomic import atomic_paths, encode_image
+from vehloc.data.text import read_json
 
 from vehloc.geometry.calibration import (
     Calibration,
@@ -21,8 +22,10 @@ from vehloc.geometry.calibration import (
     camera_from_homography,
     image_size_of,
 )
+from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.markers import DetectedMarker, MarkerDetectionParams, detect_markers
 from vehloc.geometry.overlay import draw_calibration
+from vehloc.geometry.projective import ProjectiveTransform
 from vehloc.geometry.site import Site, SiteError
 
 CALIBRATION_MODES = ("detect", "guess")
@@ -38,6 +41,12 @@ class SiteCalibration:
     markers: tuple[DetectedMarker, ...]
     calibration: Calibration
     camera: CameraFromHomography | None
+
+    def camera_calibration(self, source: str) -> CameraCalibration:
+        """The calibration as localization uses it."""
+        return CameraCalibration.from_homography(
+            self.calibration.homography, self.image_size_px, self.calibration.rms_reprojection_px, source
+        )
 
     def summary(self) -> dict[str, object]:
         """JSON-ready figures: homography, inliers, reprojection errors, and the camera when recoverable."""
@@ -63,13 +72,13 @@ def check_mode(mode: str) -> None:
         raise CalibrationError(f"mode must be 'detect' or 'guess', got {mode!r}")
 
 
-def check_image_size(site: Site, image_bgr: np.ndarray) -> None:
+def check_image_size(site: Site, image_bgr: np.ndarray, image_name: str = "the image") -> None:
     """SiteError when the site was surveyed for an image of another size."""
     size = image_size_of(image_bgr)
     if site.image_size_px is not None and tuple(site.image_size_px) != size:
         raise SiteError(
-            f"site {site.name!r} is for {site.image_size_px[0]}x{site.image_size_px[1]} px images, "
-            f"the image is {size[0]}x{size[1]} px"
+            f"{site.label}: image_size_px is {site.image_size_px[0]}x{site.image_size_px[1]}, "
+            f"{image_name} is {size[0]}x{size[1]} px"
         )
 
 
@@ -79,11 +88,13 @@ def calibrate_site(
     mode: str = "detect",
     detection: MarkerDetectionParams | None = None,
     params: CalibrationParams | None = None,
+    image_name: str = "the image",
 ) -> SiteCalibration:
     """Calibrate the camera of `site` from one image (`mode`: `detect` matches detected marker blobs to the
-    surveyed ones; `guess` refines the site's clicked points on the predicted marker edges)."""
+    surveyed ones; `guess` refines the site's clicked points on the predicted marker edges); SiteError when the
+    site's image_size_px is not the image's."""
     check_mode(mode)
-    check_image_size(site, image_bgr)
+    check_image_size(site, image_bgr, image_name)
     markers = tuple(detect_markers(image_bgr, detection))
     if mode == "detect":
         calibration = calibrate(markers, site, params, image_bgr)
@@ -101,9 +112,68 @@ def write_calibration_files(
     result: SiteCalibration, image_bgr: np.ndarray, out_dir: Path, grid_step_mm: float, sources: dict[str, str]
 ) -> dict[str, object]:
     """`image.png` (the image calibrated on), `calibration.json` (`sources`, e.g. the site and image paths, and
-    the summary) and `overlay.png` (detections and the world grid projected back), each written atomically."""
+    the summary) and `overlay.png` (detections and the world grid projected back), written together: each to a
+    temporary file first, and all three renamed into place only when every one is complete, so that an
+    interrupt or a failure leaves an earlier calibration there whole."""
     summary = dict(sources) | result.summary()
-    write_image(out_dir / "image.png", image_bgr)
-    write_text(out_dir / "calibration.json", json.dumps(summary, indent=2))
-    write_image(out_dir / "overlay.png", draw_calibration(image_bgr, list(result.markers), result.calibration, grid_step_mm))
+    contents = {
+        "image.png": encode_image("image.png", image_bgr),
+        "calibration.json": (json.dumps(summary, indent=2) + "\n").encode("utf-8"),
+        "overlay.png": encode_image(
+            "overlay.png", draw_calibration(image_bgr, list(result.markers), result.calibration, grid_step_mm)),
+    }
+    with atomic_paths([out_dir / name for name in contents]) as temporaries:
+        for temporary, data in zip(temporaries, contents.values()):
+            temporary.write_bytes(data)
     return summary
+
+
+@dataclass(frozen=True)
+class CameraCalibration:
+    """What localization needs of a calibration: the road homography, the camera when it can be recovered
+    from it, the image size it holds for and its reprojection error."""
+
+    road_to_image: ProjectiveTransform
+    image_size_px: tuple[int, int]
+    camera: PinholeCamera | None
+    rms_reprojection_px: float
+    source: str
+
+    @classmethod
+    def from_homography(cls, homography: np.ndarray, image_size_px: tuple[int, int], rms_reprojection_px: float,
+                        source: str) -> CameraCalibration:
+        road_to_image = ProjectiveTransform.road_to_image(homography, *image_size_px)
+        try:
+            camera = camera_from_homography(road_to_image, *image_size_px).camera
+        except CalibrationError:
+            camera = None
+        return cls(road_to_image, tuple(image_size_px), camera, float(rms_reprojection_px), source)
+
+    def check_image_size(self, width_px: int, height_px: int, what: str) -> None:
+        """CalibrationError when `what` (a video or image) is not of the calibrated size."""
+        if (width_px, height_px) != self.image_size_px:
+            raise CalibrationError(
+                f"{self.source} calibrates {self.image_size_px[0]}x{self.image_size_px[1]} px images, "
+                f"{what} is {width_px}x{height_px} px"
+            )
+
+
+def read_calibration(path: str | Path) -> CameraCalibration:
+    """The calibration written by `vehloc-calibrate` (`calibration.json`); CalibrationError naming the file
+    when it is missing or not one."""
+    path = Path(path)
+    if not path.is_file():
+        raise CalibrationError(f"{path}: calibration file does not exist")
+    content = read_json(path, CalibrationError)
+    try:
+        homography = np.array(content["homography_world_mm_to_image_px"], dtype=float)
+        size = tuple(int(v) for v in content["image_size_px"])
+        rms = float(content["rms_reprojection_px"])
+    except (KeyError, TypeError, ValueError) as err:
+        raise CalibrationError(f"{path}: not a calibration.json of vehloc-calibrate ({type(err).__name__}: {err})") from None
+    if homography.shape != (3, 3) or not np.all(np.isfinite(homography)) or len(size) != 2 or min(size) <= 0:
+        raise CalibrationError(f"{path}: needs a 3x3 homography of finite numbers and a positive image size")
+    try:
+        return CameraCalibration.from_homography(homography, size, rms, str(path))
+    except ValueError as err:
+        raise CalibrationError(f"{path}: {err}") from None

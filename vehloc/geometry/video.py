@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 from collections.abc import Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 
 os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")  # FFmpeg quiet: bad files are reported by vehloc, in one line
@@ -29,6 +30,33 @@ def _opencv_errors_only() -> Iterator[None]:
         yield
     finally:
         cv2.utils.logging.setLogLevel(previous)
+
+
+@dataclass(frozen=True)
+class VideoInfo:
+    """A video's frame size, frame count (as its container says) and frame rate."""
+
+    width_px: int
+    height_px: int
+    frame_count: int
+    fps: float
+
+
+def video_info(path: Path | str) -> VideoInfo:
+    """The size, length and rate of a video; MediaError if it does not exist or OpenCV cannot open it."""
+    path = Path(path)
+    if not path.is_file():
+        raise MediaError(f"{path}: video does not exist")
+    with _opencv_errors_only():
+        capture = cv2.VideoCapture(str(path), cv2.CAP_FFMPEG)
+    try:
+        ok, frame = capture.read()
+        if not ok:
+            raise MediaError(f"{path}: not a readable video (OpenCV decoded no frame)")
+        return VideoInfo(frame.shape[1], frame.shape[0], int(capture.get(cv2.CAP_PROP_FRAME_COUNT)),
+                         float(capture.get(cv2.CAP_PROP_FPS)))
+    finally:
+        capture.release()
 
 
 def iter_frames(path: Path | str) -> Iterator[np.ndarray]:

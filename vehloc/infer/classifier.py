@@ -59,12 +59,15 @@ class VehicleClassifier:
         """Load a `.onnx` file written by vehloc-export; everything else is read from the file."""
         path = Path(path)
         if not path.is_file():
-            raise ModelFileError(f"{path}: model file does not exist")
+            raise ModelFileError(f"{path}: model file does not exist" + (" (it is a folder)" if path.is_dir() else ""))
         try:
             session = ort.InferenceSession(str(path), providers=list(providers or default_providers()))
         except Exception as exc:  # onnxruntime raises its own exception types for corrupt files
-            raise ModelFileError(f"{path}: not a loadable ONNX model ({str(exc).splitlines()[0]})") from None
+            reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise ModelFileError(f"{path}: not a loadable ONNX model ({reason[:300]})") from None
         metadata = read_metadata(session.get_modelmeta().custom_metadata_map, str(path))
+        metadata.check_graph([(i.name, i.shape) for i in session.get_inputs()],
+                             [(o.name, o.shape) for o in session.get_outputs()], str(path))
         return cls(session, metadata, str(path))
 
     @property
@@ -119,6 +122,8 @@ class VehicleClassifier:
 
     def predictions(self, probabilities: np.ndarray, top_k: int = 5) -> list[Prediction]:
         """Predictions from (N, C) class probabilities (e.g. averaged over a track's frames)."""
+        if top_k < 1:
+            raise ValueError(f"top_k must be at least 1, got {top_k}")
         dims = self.metadata.dims_mm
         expected = expected_dims_mm(probabilities, dims, self.metadata.expected_top_k) if len(probabilities) else []
         predictions = []

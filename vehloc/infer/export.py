@@ -5,7 +5,8 @@ ONNX with a dynamic batch axis; the file gets the vehloc metadata, passes
 `onnx.checker.check_model(full_check=True)`, and must reproduce the PyTorch logits on real images, each
 side from the image file through its own pipeline: the training code's evaluation data set for PyTorch,
 the onnxruntime classifier for ONNX (max abs difference and identical top-1). It is written under a
-temporary name and renamed over the output only then, so a failed export never replaces a good file.
+temporary name and renamed over the output only then, so a failed or interrupted export never replaces a good
+file.
 
 This module is where deployment meets training: it needs torch, the rest of `vehloc.infer` does not.
 """
@@ -13,7 +14,6 @@ This module is where deployment meets training: it needs torch, the rest of `veh
 from __future__ import annotations
 
 import hashlib
-import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,7 +22,9 @@ import numpy as np
 import onnx
 import torch
 
+from vehloc.atomic import atomic_path
 from vehloc.data.compcars import CompCarsSample
+from vehloc.data.shapes import VehicleShape
 from vehloc.data.specs import VehicleSpec
 from vehloc.errors import VehlocError
 from vehloc.infer.classifier import VehicleClassifier
@@ -69,8 +71,9 @@ def file_sha256(path: Path) -> str:
     return digest.hexdigest()
 
 
-def metadata_of(checkpoint: dict, checkpoint_path: Path) -> ModelMetadata:
-    """The metadata of a checkpoint's classifier: its class table and preprocessing."""
+def metadata_of(checkpoint: dict, checkpoint_path: Path, shapes: dict[int, VehicleShape] | None = None) -> ModelMetadata:
+    """The metadata of a checkpoint's classifier: its class table and preprocessing, and the shapes of those
+    of its classes that `shapes` has."""
     hp = checkpoint["hyper_parameters"]
     wheelbases = hp.get("class_wheelbases_mm") or [None] * len(hp["class_model_ids"])
     classes = tuple(
@@ -85,6 +88,7 @@ def metadata_of(checkpoint: dict, checkpoint_path: Path) -> ModelMetadata:
         backbone=str(hp["backbone"]["name"]),
         source_checkpoint_sha256=file_sha256(checkpoint_path),
         expected_top_k=int(hp.get("expected_top_k", 5)),
+        shapes={c.model_id: shapes[c.model_id] for c in classes if shapes and c.model_id in shapes},
     )
 
 
@@ -101,22 +105,22 @@ def export_checkpoint(
     parity_samples: Sequence[CompCarsSample],
     opset: int = DEFAULT_OPSET,
     tolerance: float = 1e-4,
+    shapes: dict[int, VehicleShape] | None = None,
 ) -> ExportReport:
     """Export, check and atomically place the ONNX model of a checkpoint (see the module docstring); the
-    parity check runs on `parity_samples`, labelled images of the checkpoint's kind."""
+    parity check runs on `parity_samples`, labelled images of the checkpoint's kind. `shapes` (by model id)
+    go into the metadata for the classes they cover."""
     if opset < 17:
         raise ExportError(f"opset {opset} is below 17, the lowest vehloc exports")
     if not parity_samples:
         raise ExportError("the parity check needs at least one real image")
     checkpoint = read_checkpoint(checkpoint_path)
-    metadata = metadata_of(checkpoint, Path(checkpoint_path))
-    deployed = DeployedClassifier(load_classifier(checkpoint)).eval()
+    metadata = metadata_of(checkpoint, Path(checkpoint_path), shapes)
+    deployed = DeployedClassifier(load_classifier(checkpoint, checkpoint_path)).eval()
     images = pytorch_inputs(parity_samples, metadata)
 
     output = Path(output)
-    output.parent.mkdir(parents=True, exist_ok=True)
-    temporary = output.with_name(f".{output.name}.{os.getpid()}.tmp")
-    try:
+    with atomic_path(output) as temporary:
         example = images[:2]
         torch.onnx.export(
             deployed, (example,), str(temporary), input_names=[metadata.input_name],
@@ -128,10 +132,7 @@ def export_checkpoint(
         onnx.save(model, str(temporary))
         onnx.checker.check_model(str(temporary), full_check=True)
         report = _parity(deployed, temporary, images, parity_samples, tolerance, opset, output)
-        os.replace(temporary, output)
-        return report
-    finally:
-        temporary.unlink(missing_ok=True)
+    return report
 
 
 def _parity(

@@ -1,8 +1,9 @@
 """What a vehloc ONNX file carries besides its graph: classes, their dimensions, preprocessing.
 
 Stored as one JSON document under the metadata key `vehloc`, so that a user needs nothing but the
-`.onnx` file: the classes are the specs rows of their models (id, make, model, L/W/H, wheelbase), and the
-preprocessing is the one of `vehloc.data.preprocess` (ROI enlargement, resize, crop, RGB in [0, 1]); the
+`.onnx` file: the classes are the specs rows of their models (id, make, model, L/W/H, wheelbase), with their shapes
+when the training data had them (`vehloc.data.shapes`, for the model fit), and the preprocessing is the
+one of `vehloc.data.preprocess` (ROI enlargement, resize, crop, RGB in [0, 1]); the
 graph takes (N, 3, S, S) inputs, normalises them itself (the preprocessing's mean/std, recorded for
 reference) and returns logits and probabilities per class.
 """
@@ -10,12 +11,15 @@ reference) and returns logits and probabilities per class.
 from __future__ import annotations
 
 import json
+import math
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
 import onnx
 
 from vehloc.data.preprocess import Preprocessing
+from vehloc.data.shapes import VehicleShape, shapes_from_json, shapes_to_json
 from vehloc.data.specs import VehicleSpec
 from vehloc.errors import VehlocError
 
@@ -40,6 +44,14 @@ class ModelMetadata:
     output_names: tuple[str, str] = ("logits", "probabilities")
     format_version: int = FORMAT_VERSION
     notes: dict[str, str] = field(default_factory=dict)
+    shapes: dict[int, VehicleShape] = field(default_factory=dict)
+
+    def shape_of(self, model_id: int) -> VehicleShape:
+        """The model's shape when the file carries one, else the cuboid of its dimensions."""
+        if model_id in self.shapes:
+            return self.shapes[model_id]
+        spec = next(c for c in self.classes if c.model_id == model_id)
+        return VehicleShape.cuboid(spec.length_mm, spec.width_mm, spec.height_mm)
 
     @property
     def dims_mm(self) -> np.ndarray:
@@ -47,7 +59,9 @@ class ModelMetadata:
         return np.array([c.dims_mm for c in self.classes], dtype=float).reshape(-1, 3)
 
     def to_json(self) -> str:
-        return json.dumps({**asdict(self), "preprocessing": self.preprocessing.as_dict()}, sort_keys=True)
+        values = {**asdict(self), "preprocessing": self.preprocessing.as_dict()}
+        values["shapes"] = shapes_to_json(self.shapes)
+        return json.dumps(values, sort_keys=True)
 
     @classmethod
     def from_json(cls, text: str, source: str) -> ModelMetadata:
@@ -61,10 +75,58 @@ class ModelMetadata:
                 )
             values["classes"] = tuple(VehicleSpec(**entry) for entry in values["classes"])
             values["preprocessing"] = Preprocessing.from_dict(values["preprocessing"])
+            values["shapes"] = shapes_from_json(values["shapes"], source)
             values["output_names"] = tuple(values["output_names"])
-            return cls(**values)
+            metadata = cls(**values)
         except (json.JSONDecodeError, KeyError, TypeError, ValueError, AttributeError) as exc:
             raise ModelFileError(f"{source}: malformed vehloc metadata ({exc})") from None
+        metadata.check(source)
+        return metadata
+
+    def check(self, source: str) -> None:
+        """ModelFileError naming `source` unless the metadata is usable: classes with distinct model ids and
+        finite positive dimensions, expected_top_k >= 1, two output names."""
+        if not self.classes:
+            raise ModelFileError(f"{source}: the vehloc metadata lists no classes")
+        ids = [c.model_id for c in self.classes]
+        if len(set(ids)) != len(ids):
+            raise ModelFileError(f"{source}: the vehloc metadata lists a model id twice")
+        for spec in self.classes:
+            dims = [spec.length_mm, spec.width_mm, spec.height_mm]
+            if not all(isinstance(d, (int, float)) and math.isfinite(d) and d > 0 for d in dims):
+                raise ModelFileError(f"{source}: class {spec.model_id} has dimensions {dims}; they must be finite and positive")
+        if not (isinstance(self.expected_top_k, int) and self.expected_top_k >= 1):
+            raise ModelFileError(f"{source}: expected_top_k {self.expected_top_k!r} in the metadata is not an integer >= 1")
+        if len(self.output_names) != 2:
+            raise ModelFileError(f"{source}: the metadata needs two output names (logits, probabilities)")
+
+    def check_graph(self, inputs: Sequence[tuple[str, Sequence[object]]], outputs: Sequence[tuple[str, Sequence[object]]],
+                    source: str) -> None:
+        """ModelFileError naming `source` unless the graph is the one the metadata describes: one input of that
+        name with shape (N, 3, S, S), S the preprocessing's input size, and the two named outputs (N, C), C
+        the number of classes. `inputs`, `outputs`: (name, shape) of the graph's, a dimension an int or a name."""
+        size = self.preprocessing.input_size_px
+        if len(inputs) != 1 or inputs[0][0] != self.input_name:
+            raise ModelFileError(
+                f"{source}: the graph's inputs {[name for name, _ in inputs]} are not the one input "
+                f"{self.input_name!r} of its metadata")
+        shape = list(inputs[0][1])
+        if len(shape) != 4 or shape[1:] != [3, size, size]:
+            raise ModelFileError(
+                f"{source}: the graph takes input shape {_shape_text(shape)}, its metadata says (N, 3, {size}, {size})")
+        by_name = {name: list(shape) for name, shape in outputs}
+        for name in self.output_names:
+            if name not in by_name:
+                raise ModelFileError(f"{source}: the graph has no output {name!r} (its outputs: {', '.join(by_name)})")
+            shape = by_name[name]
+            if len(shape) != 2 or shape[1] != len(self.classes):
+                raise ModelFileError(
+                    f"{source}: output {name!r} has shape {_shape_text(shape)}, but the metadata lists "
+                    f"{len(self.classes)} classes")
+
+
+def _shape_text(shape: Sequence[object]) -> str:
+    return "(" + ", ".join("N" if not isinstance(d, int) else str(d) for d in shape) + ")"
 
 
 def attach_metadata(model: onnx.ModelProto, metadata: ModelMetadata) -> None:

@@ -5,14 +5,16 @@ label file (`<root>/image/...jpg` -> `<root>/label/...txt`) enlarged as the mode
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
 import pandas as pd
 
+from vehloc.atomic import check_output_file, write_text
+from vehloc.config import ArgumentParser, integer_argument
 from vehloc.data.boxes import Box
 from vehloc.data.compcars import parse_label
+from vehloc.data.text import read_text
 from vehloc.errors import DataError, exit_on_error
 from vehloc.infer.classifier import VehicleClassifier
 
@@ -32,9 +34,9 @@ def label_box(image_path: Path) -> Box:
     if not label_path.is_file():
         raise DataError(f"{label_path}: the label file of {image_path} does not exist")
     try:
-        return parse_label(label_path.read_text())[1]
+        return parse_label(read_text(label_path))[1]
     except ValueError as err:
-        raise DataError(f"{label_path}: {err}") from None
+        raise DataError(f"{label_path}: malformed label: {err}") from None
 
 
 def prediction_table(
@@ -57,21 +59,27 @@ def prediction_table(
 
 @exit_on_error("vehloc-predict")
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="vehloc-predict", description=__doc__)
+    parser = ArgumentParser(prog="vehloc-predict", description=__doc__)
     parser.add_argument("--model", type=Path, required=True, help="a .onnx file written by vehloc-export")
     parser.add_argument("images", type=Path, nargs="+", help="vehicle images (ROI crops)")
-    parser.add_argument("--top-k", type=int, default=5)
-    parser.add_argument("--csv", type=Path, help="also write the table to this CSV file")
+    parser.add_argument("--top-k", type=integer_argument(1), default=5,
+                        help="how many models to list per image (at most the model's classes)")
+    parser.add_argument("--csv", type=Path, help="also write the table to this CSV file (replaced whole)")
     parser.add_argument(
         "--compcars-labels", action="store_true",
         help="the images are whole CompCars images: crop each to the box of its label file",
     )
     args = parser.parse_args(argv)
+    if args.csv:
+        check_output_file(args.csv, "--csv")
+    missing = [image for image in args.images if not image.is_file()]
+    if missing:
+        state = "is a folder" if missing[0].is_dir() else "image does not exist"
+        raise DataError(f"{missing[0]}: {state}" + (f" (and {len(missing) - 1} more missing)" if len(missing) > 1 else ""))
     table = prediction_table(VehicleClassifier.from_onnx(args.model), args.images, args.top_k, args.compcars_labels)
     print(table.to_string(index=False))
     if args.csv:
-        args.csv.parent.mkdir(parents=True, exist_ok=True)
-        table.to_csv(args.csv, index=False)
+        write_text(args.csv, table.to_csv(index=False))
     return 0
 
 

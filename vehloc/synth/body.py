@@ -15,7 +15,8 @@ from functools import cache
 
 import numpy as np
 
-from vehloc.synth.catalog import CarModel
+from vehloc.data.shapes import VehicleShape
+from vehloc.synth.catalog import CATALOG, CarModel
 
 PLATE_SIZE_MM = (440.0, 140.0)
 """Licence plate width and height (the Chinese standard plate)."""
@@ -675,15 +676,7 @@ def _add_wheel(builder: _MeshBuilder, model: CarModel, x_axle: float, y_centre: 
 
 def _add_mirrors(builder: _MeshBuilder, model: CarModel, profile: _Profile) -> None:
     """Door mirrors: small boxes at the base of the A-pillars (outside the published width)."""
-    x0 = profile.x_cowl - 0.22 * model.shape.windscreen_run_mm
-    z0 = float(profile.belt(x0)) + 40.0
-    half = float(profile.half_width(x0)) - 40.0
-    for side in (-1.0, 1.0):
-        lo = np.array([x0 - 130.0, side * half, z0])
-        hi = np.array([x0, side * (half + 190.0), z0 + 110.0])
-        corners = np.array(
-            [[a, b, c] for a in (lo[0], hi[0]) for b in (lo[1], hi[1]) for c in (lo[2], hi[2])]
-        )
+    for corners in _mirror_corners(model, profile):
         centre = corners.mean(axis=0)
         for axis in range(3):
             for end in (0, 1):
@@ -692,21 +685,77 @@ def _add_mirrors(builder: _MeshBuilder, model: CarModel, profile: _Profile) -> N
                 builder.surface(face, Material.MIRROR, face.mean(axis=0) - centre)
 
 
+def _plate_heights_mm(front_cap: _CapFrame, rear_cap: _CapFrame) -> tuple[float, float]:
+    """Height of the centre of the front and rear licence plates."""
+    return (front_cap.v(0.0) + max(0.26 * (front_cap.z1 - front_cap.z0), 95.0),
+            rear_cap.v(0.0) + 0.42 * (rear_cap.z1 - rear_cap.z0))
+
+
 @cache
-def build_car_mesh(model: CarModel) -> Mesh:
-    """The model's mesh in the car frame (cached per model)."""
+def _body(model: CarModel) -> tuple[_Profile, np.ndarray, _CapFrame, _CapFrame]:
+    """The lofted body's profile, cross-section rings and front and rear faces."""
     profile = _Profile(model)
     xs, bottoms = _stations(model, profile)
     rings = _rings(model, profile, xs, bottoms)
+    return profile, rings, _cap_frame(rings[0]), _cap_frame(rings[-1])
+
+
+def plate_corners_car_mm(model: CarModel) -> dict[str, np.ndarray]:
+    """Corners (4, 3) of the front and rear licence plates in the car frame, counter-clockwise seen from
+    outside the car, starting at the lower corner on the car's right."""
+    _, _, front_cap, rear_cap = _body(model)
+    w, h = PLATE_SIZE_MM
+    corners = {}
+    for end, cap, z, sign in (("front", front_cap, _plate_heights_mm(front_cap, rear_cap)[0], 1.0),
+                              ("rear", rear_cap, _plate_heights_mm(front_cap, rear_cap)[1], -1.0)):
+        ys = np.array([-w / 2, w / 2, w / 2, -w / 2]) * sign
+        zs = np.array([z - h / 2, z - h / 2, z + h / 2, z + h / 2])
+        corners[end] = np.column_stack([np.full(4, cap.x), ys, zs])
+    return corners
+
+
+def _mirror_corners(model: CarModel, profile: _Profile) -> list[np.ndarray]:
+    """The eight corners of each door mirror: small boxes at the base of the A-pillars."""
+    x0 = profile.x_cowl - 0.22 * model.shape.windscreen_run_mm
+    z0 = float(profile.belt(x0)) + 40.0
+    half = float(profile.half_width(x0)) - 40.0
+    mirrors = []
+    for side in (-1.0, 1.0):
+        lo = np.array([x0 - 130.0, side * half, z0])
+        hi = np.array([x0, side * (half + 190.0), z0 + 110.0])
+        mirrors.append(np.array([[a, b, c] for a in (lo[0], hi[0]) for b in (lo[1], hi[1]) for c in (lo[2], hi[2])]))
+    return mirrors
+
+
+def convex_parts_car_mm(model: CarModel) -> tuple[np.ndarray, ...]:
+    """The car's outline as convex parts in the car frame: slabs of the lofted body between every other
+    cross-section, the four tyres and the two mirrors (each part the points whose convex hull it is)."""
+    profile, rings, _, _ = _body(model)
+    stations = list(range(0, len(rings), 2)) + ([len(rings) - 1] if (len(rings) - 1) % 2 else [])
+    parts = [np.vstack([rings[a], rings[b]]) for a, b in zip(stations, stations[1:])]
+    s = model.shape
+    angles = np.linspace(0, 2 * np.pi, 16, endpoint=False)
+    for x_axle, track in ((model.front_axle_x_mm, model.track_front_mm), (model.rear_axle_x_mm, model.track_rear_mm)):
+        circle = np.column_stack([x_axle + s.wheel_radius_mm * np.cos(angles), np.zeros(16),
+                                  s.wheel_radius_mm * (1 + np.sin(angles))])
+        for y_centre in (-track / 2, track / 2):
+            parts += [np.vstack([circle + [0.0, y_centre + dy, 0.0] for dy in (-s.tyre_width_mm / 2, s.tyre_width_mm / 2)])]
+    return tuple(parts + _mirror_corners(model, profile))
+
+
+@cache
+def build_car_mesh(model: CarModel) -> Mesh:
+    """The model's mesh in the car frame (cached per model)."""
+    profile, rings, front_cap, rear_cap = _body(model)
     builder = _MeshBuilder()
     front, rear = _loft(builder, model, profile, rings)
     _add_mirrors(builder, model, profile)
-    front_cap, rear_cap = _cap_frame(rings[0]), _cap_frame(rings[-1])
+    front_plate_z, rear_plate_z = _plate_heights_mm(front_cap, rear_cap)
     front_decals = _grille(front_cap, model.details.grille) + _headlights(front_cap, model.details.headlight)
-    front_decals += _plate(front_cap, front_cap.v(0.0) + max(0.26 * (front_cap.z1 - front_cap.z0), 95.0))
+    front_decals += _plate(front_cap, front_plate_z)
     _add_decals(builder, front, front_cap, front_decals)
     rear_decals = _taillights(rear_cap, model.details.taillight)
-    rear_decals += _plate(rear_cap, rear_cap.v(0.0) + 0.42 * (rear_cap.z1 - rear_cap.z0))
+    rear_decals += _plate(rear_cap, rear_plate_z)
     _add_decals(builder, rear, rear_cap, rear_decals)
     for x_axle, track in (
         (model.front_axle_x_mm, model.track_front_mm),
@@ -715,3 +764,8 @@ def build_car_mesh(model: CarModel) -> Mesh:
         for side in (-1.0, 1.0):
             _add_wheel(builder, model, x_axle, side * track / 2)
     return builder.build()
+
+
+def catalog_shapes() -> dict[int, VehicleShape]:
+    """The shape of every catalog model, by model id (what `misc/vehicle_shapes.json` of the demo set holds)."""
+    return {model.model_id: VehicleShape(convex_parts_car_mm(model)) for model in CATALOG}

@@ -8,7 +8,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from vehloc.atomic import write_image
 from vehloc.data.compcars import CompCarsSample, read_compcars
+from vehloc.data.preprocess import ImageInputError, read_bgr
 from vehloc.errors import DataError
 
 CELL_PX = (160, 120)
@@ -33,9 +35,10 @@ def _spread_viewpoints(samples: list[CompCarsSample], count: int) -> list[CompCa
 
 def _cell(image_path: Path) -> np.ndarray:
     """The image letterboxed into one cell."""
-    image = cv2.imread(str(image_path), cv2.IMREAD_COLOR)
-    if image is None:
-        raise DataError(f"{image_path}: cannot be decoded as an image")
+    try:
+        image = read_bgr(image_path)
+    except ImageInputError as err:
+        raise DataError(str(err)) from None
     cell_w, cell_h = CELL_PX
     scale = min((cell_w - 4) / image.shape[1], (cell_h - 4) / image.shape[0])
     size = (max(1, round(image.shape[1] * scale)), max(1, round(image.shape[0] * scale)))
@@ -75,8 +78,4 @@ def write_contact_sheet(root: Path, out_png: Path, per_model: int = 8) -> Path:
         cells = [_cell(s.image_path) for s in chosen]
         cells += [np.full((CELL_PX[1], CELL_PX[0], 3), _BACKGROUND_BGR, np.uint8)] * (per_model - len(cells))
         rows.append(np.hstack([_label(lines)] + cells))
-    out_png = Path(out_png)
-    out_png.parent.mkdir(parents=True, exist_ok=True)
-    if not cv2.imwrite(str(out_png), np.vstack(rows)):
-        raise DataError(f"{out_png}: cannot write the contact sheet")
-    return out_png
+    return write_image(out_png, np.vstack(rows))

@@ -10,7 +10,9 @@ number of worker processes.
 from __future__ import annotations
 
 import multiprocessing
-import shutil
+import multiprocessing.context
+import multiprocessing.pool
+import signal
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -18,13 +20,16 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
+from vehloc.atomic import atomic_dir, check_output_dir
 from vehloc.data.attributes import write_attributes
 from vehloc.data.compcars import write_label, write_split_list
 from vehloc.data.matfile import write_make_model_names
+from vehloc.data.shapes import SHAPES_FILE, write_shapes
 from vehloc.data.specs import write_specs_csv
 from vehloc.errors import VehlocError
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.synth.background import random_background
+from vehloc.synth.body import catalog_shapes
 from vehloc.synth.catalog import (
     CATALOG,
     RGB,
@@ -39,7 +44,6 @@ from vehloc.synth.render import CarPose, CarRender, Lighting, render_car
 
 IMAGE_SIZE_PX = (320, 240)
 MARKER_FILE = ".vehloc-demo"
-_GENERATED = ("image", "label", "train_test_split", "misc", "specs.csv", MARKER_FILE)
 
 
 def viewpoint_code(azimuth_deg: float) -> int:
@@ -91,9 +95,11 @@ def _car_box_corners_mm(model: CarModel) -> np.ndarray:
     return np.array([[x, y, z] for x in (-hl, hl) for y in (-hw, hw) for z in (0.0, model.height_mm)])
 
 
-VIEWS = ("any", "traffic")
-"""Viewpoint ranges: "any" direction around the car at 0-35 deg elevation (web photos), or "traffic":
-within 30 deg of the car's front or rear at 8-35 deg elevation (a camera above a road)."""
+VIEWS = ("any", "traffic", "road")
+"""Viewpoint ranges: "any" direction around the car at 0-35 deg elevation (web photos); "traffic": within 30
+deg of the car's front or rear at 8-35 deg elevation (a camera above a road, cars driving towards or away
+from it); "road": within 30 deg of the car's front, rear or either side at 8-35 deg elevation (a camera
+above a road and cars along it or across it, as the paper's Table 2 puts them)."""
 
 
 def _camera_direction_deg(rng: np.random.Generator, views: str) -> tuple[float, float]:
@@ -102,6 +108,8 @@ def _camera_direction_deg(rng: np.random.Generator, views: str) -> tuple[float, 
         return float(rng.uniform(0, 360)), float(rng.uniform(0, 35))
     if views == "traffic":
         return float(rng.choice([0.0, 180.0]) + rng.uniform(-30, 30)), float(rng.uniform(8, 35))
+    if views == "road":
+        return float(rng.choice([0.0, 90.0, 180.0, 270.0]) + rng.uniform(-30, 30)), float(rng.uniform(8, 35))
     raise ValueError(f"views must be one of {VIEWS}, not {views!r}")
 
 
@@ -206,6 +214,7 @@ def _write_image(task: tuple[Path, int, int, int, str]) -> str:
 
 
 def _init_worker() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     cv2.setNumThreads(1)
 
 
@@ -219,18 +228,28 @@ def split_indices(
     return [i for i in range(per_model) if i not in test], sorted(test)
 
 
-def _prepare_root(out_dir: Path) -> None:
-    """Create the root, or clear what a previous demo run wrote there; never touch a foreign folder."""
-    if out_dir.exists() and any(out_dir.iterdir()):
-        if not (out_dir / MARKER_FILE).is_file():
-            raise VehlocError(f"{out_dir}: not empty and not a vehloc demo set; choose a new or empty folder")
-        for name in _GENERATED:
-            path = out_dir / name
-            if path.is_dir():
-                shutil.rmtree(path)
-            elif path.exists():
-                path.unlink()
-    out_dir.mkdir(parents=True, exist_ok=True)
+MAX_SEED = 2**32 - 1
+
+
+def check_demo_root(out_dir: Path) -> None:
+    """VehlocError unless a demo set can be written to `out_dir`: a new folder, an empty one or one an earlier
+    make-demo wrote (never a foreign folder), whose parent folder can be written."""
+    out_dir = Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise VehlocError(f"{out_dir}: is a file, not a folder; choose a new or empty folder")
+    if out_dir.is_dir() and any(out_dir.iterdir()) and not (out_dir / MARKER_FILE).is_file():
+        raise VehlocError(f"{out_dir}: not empty and not a vehloc demo set; choose a new or empty folder")
+    check_output_dir(out_dir.parent, "the folder of the demo set")
+
+
+def _pool(context: multiprocessing.context.BaseContext, workers: int) -> multiprocessing.pool.Pool:
+    """A pool of spawned workers that ignore SIGINT from the moment they start (Ctrl-C reaches every process
+    of the terminal's group; the parent alone handles it, and ends the pool)."""
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)  # inherited by the spawned interpreters
+    try:
+        return context.Pool(workers, initializer=_init_worker)
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def make_demo_set(
@@ -244,10 +263,12 @@ def make_demo_set(
     """Write the CompCars-format demo set under ``out_dir`` and return it.
 
     ``views``: "traffic" or "any" (see `VIEWS`). Images, labels (true viewpoint, tight box), stratified
-    split lists, `misc/make_model_name.mat`,
-    `misc/attributes.txt` and `specs.csv`. A folder written by an earlier run is rewritten; any other
-    non-empty folder is refused. With ``workers`` > 1 the images are drawn in spawned processes, so a
-    script calling this must do so under ``if __name__ == "__main__":``.
+    split lists, `misc/make_model_name.mat`, `misc/attributes.txt`, `specs.csv` and the models' shapes,
+    `misc/vehicle_shapes.json`. The set is written into a temporary sibling folder and takes the place of
+    ``out_dir`` only when complete: an interrupt or a failure leaves an earlier set there untouched, and the
+    temporary folder of a killed run is removed by the next. A folder written by an earlier run is replaced;
+    any other non-empty folder is refused. With ``workers`` > 1 the images are drawn in spawned processes, so
+    a script calling this must do so under ``if __name__ == "__main__":``.
     """
     out_dir = Path(out_dir)
     if per_model < 2:
@@ -256,14 +277,21 @@ def make_demo_set(
         raise ValueError("test_fraction must be in (0, 1)")
     if views not in VIEWS:
         raise ValueError(f"views must be one of {VIEWS}, not {views!r}")
-    _prepare_root(out_dir)
-    tasks = [(out_dir, seed, m.model_id, i, views) for m in CATALOG for i in range(per_model)]
-    progress = dict(total=len(tasks), desc="demo images", unit="img")
+    if not 0 <= seed <= MAX_SEED or workers < 1:
+        raise ValueError(f"seed must be in [0, {MAX_SEED}] and workers >= 1, got {seed} and {workers}")
+    check_demo_root(out_dir)
+    with atomic_dir(out_dir) as staging:
+        _write_demo_set(staging, per_model, seed, test_fraction, workers, views)
+    return out_dir
+
+
+def _write_demo_set(root: Path, per_model: int, seed: int, test_fraction: float, workers: int, views: str) -> None:
+    tasks = [(root, seed, m.model_id, i, views) for m in CATALOG for i in range(per_model)]
+    progress = dict(total=len(tasks), desc="demo images", unit="img", disable=None)  # silent when not a terminal
     if workers <= 1:
         rel_paths = [_write_image(task) for task in tqdm(tasks, **progress)]
     else:
-        context = multiprocessing.get_context("spawn")
-        with context.Pool(workers, initializer=_init_worker) as pool:
+        with _pool(multiprocessing.get_context("spawn"), workers) as pool:
             rel_paths = list(tqdm(pool.imap(_write_image, tasks, chunksize=4), **progress))
 
     train, test = [], []
@@ -272,11 +300,11 @@ def make_demo_set(
         train += [relative_image_path(m, i) for i in train_idx]
         test += [relative_image_path(m, i) for i in test_idx]
     assert sorted(train + test) == sorted(rel_paths)
-    split_dir = out_dir / "train_test_split" / "classification"
+    split_dir = root / "train_test_split" / "classification"
     write_split_list(split_dir / "train.txt", train)
     write_split_list(split_dir / "test.txt", test)
-    write_make_model_names(out_dir / "misc" / "make_model_name.mat", make_names(), model_names())
-    write_attributes(out_dir / "misc" / "attributes.txt", model_attributes())
-    write_specs_csv(out_dir / "specs.csv", vehicle_specs())
-    (out_dir / MARKER_FILE).write_text("written by vehloc.synth.demo_set.make_demo_set\n")
-    return out_dir
+    write_make_model_names(root / "misc" / "make_model_name.mat", make_names(), model_names())
+    write_attributes(root / "misc" / "attributes.txt", model_attributes())
+    write_specs_csv(root / "specs.csv", vehicle_specs())
+    write_shapes(root / SHAPES_FILE, catalog_shapes())
+    (root / MARKER_FILE).write_text("written by vehloc.synth.demo_set.make_demo_set\n")

@@ -2,7 +2,9 @@
 
 The car is drawn at ``supersample`` times the image resolution and averaged down, which anti-aliases
 the edges and gives each pixel's car coverage; the car's box is the tight box of the pixels it
-covers at least half.
+covers at least half. Only the region the car and its shadow can reach is drawn and blended (the
+projected vertices' box, and the shadow polygons' box grown by the blur kernel), so a car costs in
+proportion to its size in the image, not to the frame's.
 """
 
 from __future__ import annotations
@@ -13,9 +15,8 @@ import cv2
 import numpy as np
 
 from vehloc.data.boxes import Box
-
 from vehloc.geometry.camera import NEAR_PLANE_MM, PinholeCamera
-from vehloc.synth.body import Material, Mesh, build_car_mesh
+from vehloc.synth.body import Material, Mesh, build_car_mesh, plate_corners_car_mm
 from vehloc.synth.catalog import RGB, CarModel
 from vehloc.synth.raster import SUBPIXEL_SHIFT, fill_polygon_px
 
@@ -23,7 +24,6 @@ HEADING_CONVENTION = "heading_deg: angle from world +X to the car's front, count
 """A car pose (x_mm, y_mm, heading_deg) puts the car-frame origin (centre of the footprint on the ground)
 at world (x_mm, y_mm, 0) and turns the car's front (+x of the car frame) from world +X by heading_deg,
 counter-clockwise seen from above (towards +Y); the car's +y (its left) follows, and +z stays up."""
-
 
 
 @dataclass(frozen=True)
@@ -94,7 +94,8 @@ class CarRender:
     ``coverage``: fraction of each pixel covered by the car (H, W). ``box``: tight box of the pixels
     covered at least half, or None when none is.
     Tyre contact points are ordered front-left, front-right, rear-left, rear-right; footprint corners
-    front-left, front-right, rear-right, rear-left (world mm, and pixels).
+    front-left, front-right, rear-right, rear-left (world mm, and pixels). ``plates``: the front and rear
+    licence plates (corners in world mm and pixels, and whether the plate faces the camera).
     """
 
     image_bgr: np.ndarray
@@ -104,11 +105,35 @@ class CarRender:
     tyre_contacts_px: np.ndarray
     footprint_corners_mm: np.ndarray
     footprint_corners_px: np.ndarray
+    plates: dict[str, PlateTruth]
 
     @property
     def mask(self) -> np.ndarray:
         return self.coverage >= 0.5
 
+
+@dataclass(frozen=True, eq=False)
+class PlateTruth:
+    """A licence plate's corners (4, 3) world mm and (4, 2) px, and whether its face is turned to the camera."""
+
+    corners_mm: np.ndarray
+    corners_px: np.ndarray
+    faces_camera: bool
+
+    @property
+    def centre_mm(self) -> np.ndarray:
+        return self.corners_mm.mean(axis=0)
+
+
+def plates_seen(model: CarModel, pose: CarPose, camera: PinholeCamera) -> dict[str, PlateTruth]:
+    """The model's front and rear plates at `pose`, as `camera` sees them."""
+    plates = {}
+    for end, corners_car in plate_corners_car_mm(model).items():
+        corners = pose.car_to_world(corners_car)
+        outward = pose.rotation @ np.array([1.0 if end == "front" else -1.0, 0.0, 0.0])
+        faces = float(outward @ (camera.centre_mm - corners.mean(axis=0))) > 0
+        plates[end] = PlateTruth(corners, camera.project(corners), faces)
+    return plates
 
 
 def tyre_contacts_car_mm(model: CarModel) -> np.ndarray:
@@ -168,31 +193,127 @@ def _face_colours(
     return np.clip(lit, 0, 255)[:, ::-1]
 
 
-def _draw_shadow(
-    image: np.ndarray,
-    camera: PinholeCamera,
-    model: CarModel,
-    pose: CarPose,
-    lighting: Lighting,
-    strength: float,
-) -> None:
-    """Darken the road under the car: a wide soft shadow offset away from the light, and a contact shadow."""
-    height, width = image.shape[:2]
+CAR_PAD_PX = 2
+"""Margin around the car's projected vertices that its supersampled layer covers (the fill and the area
+average reach at most a pixel past them)."""
+
+
+def _pixel_bounds(points_px: np.ndarray, pad_px: int, width_px: int, height_px: int) -> Box:
+    """The pixels within ``pad_px`` of the points' bounding box, clipped to the image (possibly empty)."""
+    x0, y0 = np.floor(points_px.min(axis=0)).astype(int) - pad_px
+    x1, y1 = np.ceil(points_px.max(axis=0)).astype(int) + pad_px + 1
+    return Box(int(x0), int(y0), int(x1), int(y1)).clipped(width_px, height_px)
+
+
+def _slices(box: Box, region: Box) -> tuple[slice, slice]:
+    """Row and column slices of ``box`` inside an array that holds ``region``."""
+    return slice(box.y0 - region.y0, box.y1 - region.y0), slice(box.x0 - region.x0, box.x1 - region.x0)
+
+
+def _gaussian_ksize(sigma: float) -> int:
+    """The kernel size OpenCV picks for a float image and ``sigma`` (ksize (0, 0)), made explicit so that
+    the region a blurred shadow reaches is known."""
+    return int(round(8.0 * sigma + 1.0)) | 1
+
+
+def _shadows(
+    camera: PinholeCamera, model: CarModel, pose: CarPose, lighting: Lighting, strength: float
+) -> list[tuple[Box, float, np.ndarray]]:
+    """The road's darkening under the car, as (region, weight, blurred shadow of the region): a wide soft
+    shadow offset away from the light, and a contact shadow. Each region is the shadow polygon's pixels
+    grown by the blur kernel's radius, so the blur outside it is zero as on a full frame."""
+    height, width = camera.height_px, camera.width_px
     light = np.asarray(lighting.direction, dtype=float)
     away_mm = -light[:2] / max(np.linalg.norm(light[:2]), 1e-9) * min(0.35 / max(light[2], 0.25), 1.2) * 400.0
     footprint = footprint_car_mm(model)
+    shadows = []
     for scale, shift, blur_frac, weight in ((1.08, 1.0, 0.05, strength), (0.96, 0.0, 0.02, strength * 0.7)):
-        shadow = np.zeros((height, width), np.float32)
         corners = pose.car_to_world(footprint * np.array([scale, scale, 0.0]))
         corners[:, :2] += away_mm * shift
-        fill_world_polygon(shadow, camera, corners, (1.0,))
-        if not shadow.any():
+        polygon_px = camera.project_polygon(corners)
+        if len(polygon_px) < 3:
             continue
-        box = Box.tight(shadow > 0)
-        assert box is not None
-        sigma = max(1.0, blur_frac * max(box.width_px - 1, box.height_px - 1))
-        shadow = cv2.GaussianBlur(shadow, (0, 0), sigma)
-        image *= (1.0 - weight * shadow)[:, :, None]
+        near = _pixel_bounds(polygon_px, 2, width, height)
+        if near.is_empty:
+            continue
+        filled = np.zeros((near.height_px, near.width_px), np.float32)
+        fill_polygon_px(filled, polygon_px - [near.x0, near.y0], (1.0,))
+        tight = _shifted(Box.tight(filled > 0), near)
+        if tight is None:
+            continue
+        sigma = max(1.0, blur_frac * max(tight.width_px - 1, tight.height_px - 1))
+        ksize = _gaussian_ksize(sigma)
+        reach = ksize // 2 + 1
+        region = Box(tight.x0 - reach, tight.y0 - reach, tight.x1 + reach, tight.y1 + reach).clipped(width, height)
+        shadow = np.zeros((region.height_px, region.width_px), np.float32)
+        shadow[_slices(tight, region)] = filled[_slices(tight, near)]
+        shadows.append((region, weight, cv2.GaussianBlur(shadow, (ksize, ksize), sigma)))
+    return shadows
+
+
+def _shifted(box: Box | None, region: Box) -> Box | None:
+    """A box found inside an array that holds ``region``, in image pixels."""
+    if box is None:
+        return None
+    return Box(box.x0 + region.x0, box.y0 + region.y0, box.x1 + region.x0, box.y1 + region.y0)
+
+
+@dataclass(frozen=True, eq=False)
+class _ProjectedFaces:
+    """A car's mesh seen by a camera: its visible faces in painter's ``order`` (far to near), every vertex's
+    pixel position and every face's shaded BGR colour."""
+
+    mesh: Mesh
+    order: np.ndarray
+    pixels: np.ndarray
+    colours: np.ndarray
+
+
+def _projected_faces(
+    model: CarModel, body_rgb: RGB, pose: CarPose, camera: PinholeCamera, lighting: Lighting
+) -> _ProjectedFaces:
+    """Cull, sort, project and shade the model's faces; ValueError when part of the car is behind the
+    camera's near plane."""
+    mesh = build_car_mesh(model)
+    vertices = pose.car_to_world(mesh.vertices_mm)
+    centroids = pose.car_to_world(mesh.centroids_mm)
+    normals = mesh.normals @ pose.rotation.T
+    camera_mm = camera.centre_mm
+
+    facing = np.sum(normals * (camera_mm - centroids), axis=1) > 0
+    visible = facing[mesh.groups]
+    depth = np.linalg.norm(centroids[mesh.groups] - camera_mm, axis=1)
+    order = np.lexsort((mesh.layers, mesh.groups, -depth))
+    order = order[visible[order]]
+
+    vertices_cam = camera.to_camera(vertices)
+    if vertices_cam[:, 2].min() < NEAR_PLANE_MM:
+        raise ValueError(f"{model.name} at {pose} is not entirely in front of the camera")
+    colours = _face_colours(mesh, normals, centroids, camera_mm, lighting, body_rgb, model)
+    return _ProjectedFaces(mesh, order, camera.project_camera(vertices_cam), colours)
+
+
+def _rasterise(faces: _ProjectedFaces, region: Box, supersample: int) -> tuple[np.ndarray, np.ndarray]:
+    """The faces drawn ``supersample`` times finer over ``region`` and averaged down: the car's
+    premultiplied BGR (h, w, 3) and its coverage (h, w) of the region's pixels. The fine grid is that of
+    the whole image shifted by whole pixels, so the region comes out as on a full-frame layer."""
+    scale = supersample << SUBPIXEL_SHIFT
+    points = np.round(((faces.pixels + 0.5) * supersample - 0.5) * (1 << SUBPIXEL_SHIFT))
+    points = (points - np.array([region.x0, region.y0]) * scale).astype(np.int32)
+    colours4 = np.column_stack([faces.colours, np.full(len(faces.colours), 255.0)]).tolist()
+    layer = np.zeros((region.height_px * supersample, region.width_px * supersample, 4), np.uint8)
+    offsets = faces.mesh.offsets
+    for face in faces.order.tolist():
+        cv2.fillPoly(layer, [points[offsets[face] : offsets[face + 1]]], colours4[face], cv2.LINE_8, SUBPIXEL_SHIFT)
+    small = cv2.resize(layer, (region.width_px, region.height_px), interpolation=cv2.INTER_AREA).astype(np.float32)
+    return small[:, :, :3], small[:, :, 3] / 255.0
+
+
+def _union(boxes: list[Box]) -> Box | None:
+    """The smallest box holding every box of the list; None for an empty list."""
+    if not boxes:
+        return None
+    return Box(min(b.x0 for b in boxes), min(b.y0 for b in boxes), max(b.x1 for b in boxes), max(b.y1 for b in boxes))
 
 
 def render_car(
@@ -211,50 +332,36 @@ def render_car(
         raise ValueError(
             f"background shape {background_bgr.shape} does not match the camera's {(height, width, 3)}"
         )
-    mesh = build_car_mesh(model)
-    rotation = pose.rotation
-    vertices = pose.car_to_world(mesh.vertices_mm)
-    centroids = pose.car_to_world(mesh.centroids_mm)
-    normals = mesh.normals @ rotation.T
-    camera_mm = camera.centre_mm
+    faces = _projected_faces(model, body_rgb, pose, camera, lighting)
 
-    facing = np.sum(normals * (camera_mm - centroids), axis=1) > 0
-    visible = facing[mesh.groups]
-    depth = np.linalg.norm(centroids[mesh.groups] - camera_mm, axis=1)
-    order = np.lexsort((mesh.layers, mesh.groups, -depth))
-    order = order[visible[order]]
-
-    vertices_cam = camera.to_camera(vertices)
-    if vertices_cam[:, 2].min() < NEAR_PLANE_MM:
-        raise ValueError(f"{model.name} at {pose} is not entirely in front of the camera")
-    pixels = camera.project_camera(vertices_cam)
-    points = np.round(((pixels + 0.5) * supersample - 0.5) * (1 << SUBPIXEL_SHIFT)).astype(np.int32)
-    colours = _face_colours(mesh, normals, centroids, camera_mm, lighting, body_rgb, model)
-    colours4 = np.column_stack([colours, np.full(len(colours), 255.0)]).tolist()
-
-    layer = np.zeros((height * supersample, width * supersample, 4), np.uint8)
-    offsets = mesh.offsets
-    for face in order.tolist():
-        cv2.fillPoly(
-            layer, [points[offsets[face] : offsets[face + 1]]], colours4[face], cv2.LINE_8, SUBPIXEL_SHIFT
-        )
-    small = cv2.resize(layer, (width, height), interpolation=cv2.INTER_AREA).astype(np.float32)
-    coverage = small[:, :, 3] / 255.0
-
-    image = background_bgr.astype(np.float32)
-    if shadow_strength > 0:
-        _draw_shadow(image, camera, model, pose, lighting, shadow_strength)
-    image = image * (1.0 - coverage[:, :, None]) + small[:, :, :3]
-    image_bgr = np.clip(np.round(image), 0, 255).astype(np.uint8)
+    frame = Box(0, 0, width, height)
+    shadows = _shadows(camera, model, pose, lighting, shadow_strength) if shadow_strength > 0 else []
+    car_region = _pixel_bounds(faces.pixels, CAR_PAD_PX, width, height)
+    region = _union([box for box, _, _ in shadows] + ([] if car_region.is_empty else [car_region]))
+    image_bgr = background_bgr.copy()
+    coverage = np.zeros((height, width), np.float32)
+    box = None
+    if region is not None:
+        patch = background_bgr[_slices(region, frame)].astype(np.float32)
+        for shadow_region, weight, shadow in shadows:
+            patch[_slices(shadow_region, region)] *= (1.0 - weight * shadow)[:, :, None]
+        if not car_region.is_empty:
+            car_bgr, car_coverage = _rasterise(faces, car_region, supersample)
+            car_patch = patch[_slices(car_region, region)]
+            car_patch[:] = car_patch * (1.0 - car_coverage[:, :, None]) + car_bgr
+            coverage[_slices(car_region, frame)] = car_coverage
+            box = _shifted(Box.tight(car_coverage >= 0.5), car_region)
+        image_bgr[_slices(region, frame)] = np.clip(np.round(patch), 0, 255).astype(np.uint8)
 
     contacts_mm = pose.car_to_world(tyre_contacts_car_mm(model))
     corners_mm = pose.car_to_world(footprint_car_mm(model))
     return CarRender(
         image_bgr=image_bgr,
         coverage=coverage,
-        box=Box.tight(coverage >= 0.5),
+        box=box,
         tyre_contacts_mm=contacts_mm,
         tyre_contacts_px=camera.project(contacts_mm),
         footprint_corners_mm=corners_mm,
         footprint_corners_px=camera.project(corners_mm),
+        plates=plates_seen(model, pose, camera),
     )

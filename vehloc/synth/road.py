@@ -12,12 +12,14 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from vehloc.config import check_choice, check_range
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.synth.raster import fill_polygon_px
 
 WHITE_BGR = (235, 238, 238)
 YELLOW_BGR = (40, 190, 225)
 MARKER_SUPERSAMPLE = 8
+MARKER_COLOURS = ("white", "yellow")
 
 
 @dataclass(frozen=True)
@@ -47,6 +49,18 @@ class RoadLayout:
     stop_line_y_mm: float | None = None
     stop_line_width_mm: float = 400.0
     verge_width_mm: float = 3000.0
+
+    def __post_init__(self) -> None:
+        check_range("lane_count", self.lane_count, 1, 12)
+        check_range("lane_width_mm", self.lane_width_mm, 0.0, low_open=True)
+        check_range("line_width_mm", self.line_width_mm, 0.0, self.lane_width_mm / 2, low_open=True, high_open=True)
+        check_range("dash_length_mm", self.dash_length_mm, 0.0, low_open=True)
+        check_range("dash_gap_mm", self.dash_gap_mm, 0.0)
+        check_range("end_y_mm", self.end_y_mm, self.start_y_mm, low_open=True)
+        check_range("stop_line_width_mm", self.stop_line_width_mm, 0.0, low_open=True)
+        check_range("verge_width_mm", self.verge_width_mm, 0.0)
+        check_choice("edge_colour", self.edge_colour, MARKER_COLOURS)
+        check_choice("centre_colour", self.centre_colour, MARKER_COLOURS)
 
     @property
     def road_width_mm(self) -> float:

@@ -1,27 +1,45 @@
-"""`vehloc-scene scene=... out=...`: render a traffic scene with its ground truth and site file."""
+"""`vehloc-scene scene=... out=...`: render a traffic scene with its ground truth and site file.
+
+Every setting is checked before the first frame is drawn (the scene's via `SceneSpec`, the site's click noise,
+the output folder, every car in view at its target pose, the site computable); the video, the ground truth
+and the site file replace those of an earlier scene in `out` together, when all three are complete."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
-import hydra
 from omegaconf import DictConfig, OmegaConf
 
-from vehloc.config import config_dir
-from vehloc.errors import exit_on_error
-from vehloc.geometry.site import write_site
-from vehloc.synth.scene import SceneSpec, write_scene
+from vehloc.atomic import check_output_dir
+from vehloc.config import ConfigError, config_dir
+from vehloc.errors import exit_on_error, hydra_main
+from vehloc.geometry.site import site_yaml
+from vehloc.synth.scene import SceneError, SceneSpec, check_cars_in_view, write_scene
 from vehloc.synth.scene_site import scene_site
 
 
-@hydra.main(version_base="1.3", config_path=str(config_dir()), config_name="scene")
 @exit_on_error("vehloc-scene")
-def main(cfg: DictConfig) -> None:
+def _run(cfg: DictConfig) -> None:
+    if OmegaConf.is_missing(cfg, "out") or not cfg.get("out"):
+        raise ConfigError("out=FOLDER is required: where the scene is written")
+    noise = cfg.site_click_noise_px
+    if isinstance(noise, bool) or not isinstance(noise, (int, float)) or not math.isfinite(noise) or noise < 0:
+        raise ConfigError(f"site_click_noise_px: expected a number >= 0, got {noise!r}")
     spec = SceneSpec.from_dict(OmegaConf.to_container(cfg.scene, resolve=True))
-    out_dir = Path(cfg.out)
-    video, truth = write_scene(spec, out_dir)
-    write_site(out_dir / "site.yaml", scene_site(spec, cfg.site_click_noise_px, spec.seed))
+    out_dir = check_output_dir(Path(cfg.out), "out")
+    check_cars_in_view(spec)
+    try:
+        site = scene_site(spec, float(noise), spec.seed)
+    except ValueError as err:
+        raise SceneError(f"{err}; no site file can be made") from None
+    video, truth = write_scene(spec, out_dir, site_yaml(site))
     print(f"wrote {video}, {truth} and {out_dir / 'site.yaml'} ({spec.frame_count} frames)")
+
+
+@hydra_main("vehloc-scene", str(config_dir()), "scene")
+def main(cfg: DictConfig) -> None:
+    _run(cfg)
 
 
 if __name__ == "__main__":

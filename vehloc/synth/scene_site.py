@@ -20,6 +20,8 @@ def scene_site(spec: SceneSpec, click_noise_px: float = 2.0, seed: int = 0) -> S
     like hand clicks."""
     camera = spec.camera.camera()
     markers = tuple(SiteMarker(m.marker_id, m.corners_mm) for m in spec.layout.markers() if m.has_corners)
+    if not markers:
+        raise ValueError(f"scene {spec.name}: the road has no marker with corners")
     corners = np.concatenate([m.corners_mm for m in markers])
     pixels = camera.project(np.column_stack([corners, np.zeros(len(corners))]))
     visible = np.flatnonzero(_visible(pixels, camera.width_px, camera.height_px, margin_px=20))

@@ -18,6 +18,7 @@ from torchvision.models import (
 )
 
 from vehloc.errors import VehlocError
+from vehloc.train.checkpoints import load_failure
 from vehloc.train.efficientnet_lite import LITE_MEAN, LITE_STD, EfficientNetLite0, lite0_weights_path
 
 IMAGENET_MEAN = (0.485, 0.456, 0.406)
@@ -120,7 +121,9 @@ def _load_state_dict(net: nn.Module, path: Path, name: str, pretrained: str) -> 
     try:
         state = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as exc:  # noqa: BLE001 - any unreadable file is a user error here
-        raise VehlocError(f"{path}: not a readable PyTorch state dict ({exc})") from None
+        raise VehlocError(f"model.backbone.pretrained {path}: not a readable PyTorch state dict: {load_failure(exc)}") from None
+    if not isinstance(state, dict) or not all(isinstance(v, torch.Tensor) for v in state.values()):
+        raise VehlocError(f"model.backbone.pretrained {path}: not a state dict (a mapping of parameter names to tensors)")
     own = net.state_dict()
     missing = sorted(own.keys() - state.keys())
     unexpected = sorted(state.keys() - own.keys())

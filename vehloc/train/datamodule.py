@@ -13,10 +13,10 @@ import numpy as np
 import torch
 from torch.utils.data import DataLoader, WeightedRandomSampler
 
-from vehloc.data.compcars import CompCarsSample, CompCarsSet, read_compcars
+from vehloc.data.compcars import CompCarsSample, CompCarsSet
 from vehloc.data.preprocess import Preprocessing
-from vehloc.data.specs import SpecsTable, read_specs_csv
-from vehloc.errors import DataError
+from vehloc.data.specs import SpecsTable
+from vehloc.train.classes import class_info, read_dataset, read_specs
 from vehloc.train.dataset import CompCarsCrops
 from vehloc.train.transforms import EvalTransform, TrainTransform
 
@@ -77,29 +77,19 @@ class CompCarsDataModule(L.LightningDataModule):
 
     @cached_property
     def dataset(self) -> CompCarsSet:
-        if not self.root.is_dir():
-            raise DataError(
-                f"data.root {self.root}: no such folder (write the demo set with "
-                f"`vehloc-data make-demo {self.root}`, or pass data.root=PATH)"
-            )
-        return read_compcars(self.root)
+        return read_dataset(self.root)
 
     @cached_property
     def specs(self) -> SpecsTable:
-        specs = read_specs_csv(self.specs_path)
-        specs.require(self.dataset.model_ids, self.dataset.model_names)
-        return specs
+        return read_specs(self.specs_path, self.dataset)
+
+    def use_data(self, dataset: CompCarsSet, specs: SpecsTable) -> None:
+        """Use a data set and specs table already read from this module's root (not read again)."""
+        self.__dict__["dataset"], self.__dict__["specs"] = dataset, specs
 
     def class_info(self) -> dict[str, list]:
         """Model ids, make and model names, (L, W, H) and wheelbase in mm of the classes, in class-index order."""
-        table = self.dataset.class_table()
-        return {
-            "class_model_ids": [int(row["model_id"]) for row in table],
-            "class_makes": [str(row["make"]) for row in table],
-            "class_models": [str(row["model"]) for row in table],
-            "class_dims_mm": self.specs.dims_mm(self.dataset.model_ids).tolist(),
-            "class_wheelbases_mm": [self.specs[m].wheelbase_mm for m in self.dataset.model_ids],
-        }
+        return class_info(self.dataset, self.specs)
 
     def use_preprocessing(self, preprocessing: Preprocessing) -> None:
         """Evaluate with a model's preprocessing (before `setup`)."""

@@ -1,17 +1,20 @@
 """`vehloc-eval ckpt_path=...`: test a trained classifier (Hydra config `conf/eval.yaml`) and write Table 1,
-the accuracy and dimension-error tables, the most-confused pairs and the confusion matrix into the run folder."""
+the accuracy and dimension-error tables, the most-confused pairs and the confusion matrix into the run folder.
+
+Before anything is computed, the settings are checked, the checkpoint is read (with `weights_only=True`) and
+its classes are compared with the data's, model ids and names: a checkpoint scored against another data set
+numbered the same way would give a plausible but meaningless Table 1."""
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
-import hydra
-from omegaconf import DictConfig, OmegaConf
+from omegaconf import DictConfig
 
 from vehloc.config import config_dir
-from vehloc.errors import VehlocError, exit_on_error
-from vehloc.train.instantiate import instantiate_callbacks, instantiate_loggers, instantiate_trainer
-from vehloc.train.module import check_classes, load_classifier, preprocessing_of, read_checkpoint
+from vehloc.errors import exit_on_error, hydra_main
+from vehloc.train.params import check_eval_config
 
 
 def evaluate(cfg: DictConfig) -> tuple[dict[str, float], dict[str, Any]]:
@@ -19,18 +22,35 @@ def evaluate(cfg: DictConfig) -> tuple[dict[str, float], dict[str, Any]]:
 
     The test images go through the checkpoint's own preprocessing (ROI enlargement, resize, input size:
     those it was trained with), whatever the data config says."""
-    if OmegaConf.is_missing(cfg, "ckpt_path") or not cfg.ckpt_path:
-        raise VehlocError("ckpt_path=PATH is required: the checkpoint to evaluate")
+    data = check_eval_config(cfg)
+    from vehloc.train.checkpoints import check_classes, preprocessing_of, read_checkpoint
+    from vehloc.train.classes import class_info, read_dataset, read_specs
+
     checkpoint = read_checkpoint(cfg.ckpt_path)
-    datamodule = hydra.utils.instantiate(cfg.data, _convert_="all")
-    datamodule.use_preprocessing(preprocessing_of(checkpoint, cfg.ckpt_path))
-    classes = datamodule.class_info()
-    check_classes(checkpoint, classes["class_model_ids"], cfg.ckpt_path)
-    model = load_classifier(checkpoint, **{k: v for k, v in classes.items() if k != "class_model_ids"})
+    preprocessing = preprocessing_of(checkpoint, cfg.ckpt_path)
+    dataset = read_dataset(data.root)
+    specs = read_specs(data.specs_csv or Path(data.root) / "specs.csv", dataset)
+    classes = class_info(dataset, specs)
+    check_classes(checkpoint, classes["class_model_ids"], cfg.ckpt_path, classes["class_makes"],
+                  classes["class_models"], f"data.root {data.root}")
+
+    from vehloc.train.instantiate import (
+        instantiate,
+        instantiate_callbacks,
+        instantiate_loggers,
+        instantiate_trainer,
+        run_trainer,
+    )
+    from vehloc.train.module import load_classifier
+
+    datamodule = instantiate(cfg.data, "data", _convert_="all")
+    datamodule.use_data(dataset, specs)
+    datamodule.use_preprocessing(preprocessing)
+    model = load_classifier(checkpoint, cfg.ckpt_path, **{k: v for k, v in classes.items() if k != "class_model_ids"})
     callbacks = instantiate_callbacks(cfg.get("callbacks"))
     loggers = instantiate_loggers(cfg.get("logger"))
     trainer = instantiate_trainer(cfg, callbacks, loggers)
-    trainer.test(model, datamodule=datamodule)
+    run_trainer(trainer, "test", model, datamodule=datamodule)
     metrics = {k: float(v) for k, v in trainer.callback_metrics.items()}
     return metrics, {"cfg": cfg, "datamodule": datamodule, "model": model, "trainer": trainer, "callbacks": callbacks}
 
@@ -40,7 +60,7 @@ def _run(cfg: DictConfig) -> None:
     evaluate(cfg)
 
 
-@hydra.main(version_base="1.3", config_path=str(config_dir()), config_name="eval")
+@hydra_main("vehloc-eval", str(config_dir()), "eval")
 def main(cfg: DictConfig) -> None:
     _run(cfg)
 

@@ -12,11 +12,13 @@ import lightning as L
 import torch
 from hydra import compose, initialize_config_dir
 from hydra.core.hydra_config import HydraConfig
+from hydra.errors import InstantiationException
 from lightning.pytorch.loggers import Logger
 from lightning.pytorch.utilities import rank_zero_info, rank_zero_only, rank_zero_warn
 from omegaconf import DictConfig, OmegaConf, open_dict
 
-from vehloc.config import config_dir
+from vehloc.atomic import write_text
+from vehloc.config import ConfigError, config_dir
 from vehloc.errors import VehlocError
 from vehloc.hardware import cpu_info
 from vehloc.train.datamodule import CompCarsDataModule
@@ -37,13 +39,41 @@ def compose_config(config_name: str, overrides: Sequence[str] = (), output_dir: 
     return cfg
 
 
+def instantiate(config: Any, where: str, **kwargs: Any) -> Any:
+    """`hydra.utils.instantiate`, with the error of the object's constructor as one line: a VehlocError raised
+    inside (a missing weights file, an unreadable checkpoint) as it is, anything else as ConfigError naming the
+    config group `where`, not wrapped in Hydra's report."""
+    try:
+        return hydra.utils.instantiate(config, **kwargs)
+    except InstantiationException as err:
+        cause = err.__cause__
+        while isinstance(cause, InstantiationException) and cause.__cause__ is not None:
+            cause = cause.__cause__
+        if isinstance(cause, VehlocError):
+            raise cause from None
+        reason = str(cause).splitlines()[0] if cause is not None and str(cause) else str(err).splitlines()[-1]
+        raise ConfigError(f"{where}: cannot build {config.get('_target_', 'it')} ({reason})") from None
+
+
 def _instantiate_group(group: DictConfig | None, kind: str) -> list[Any]:
     if not group:
         return []
     if not isinstance(group, DictConfig):
         raise VehlocError(f"{kind} config must be a mapping of named entries")
-    entries = [entry for entry in group.values() if isinstance(entry, DictConfig) and "_target_" in entry]
-    return [hydra.utils.instantiate(entry) for entry in entries]
+    entries = [(name, entry) for name, entry in group.items() if isinstance(entry, DictConfig) and "_target_" in entry]
+    return [instantiate(entry, f"{kind}.{name}") for name, entry in entries]
+
+
+def run_trainer(trainer: L.Trainer, method: str, *args: Any, **kwargs: Any) -> Any:
+    """`trainer.fit` / `trainer.test` (by `method`) with Ctrl-C raised as KeyboardInterrupt: Lightning catches
+    it, shuts the run down (the last complete checkpoint stays) and exits with code 1, which the console
+    scripts then report as `<prog>: interrupted` and exit code 130."""
+    try:
+        return getattr(trainer, method)(*args, **kwargs)
+    except SystemExit:
+        if trainer.interrupted:
+            raise KeyboardInterrupt from None
+        raise
 
 
 def instantiate_callbacks(cfg: DictConfig | None) -> list[L.Callback]:
@@ -59,8 +89,8 @@ def instantiate_data_and_model(cfg: DictConfig) -> tuple[CompCarsDataModule, Lit
     images go through the model's preprocessing."""
     if OmegaConf.is_missing(cfg.data, "root") or cfg.data.root is None:
         raise VehlocError("data.root=PATH is required: a CompCars-format data set")
-    datamodule: CompCarsDataModule = hydra.utils.instantiate(cfg.data, _convert_="all")
-    model: LitVehicleClassifier = hydra.utils.instantiate(cfg.model, **datamodule.class_info(), _convert_="all")
+    datamodule: CompCarsDataModule = instantiate(cfg.data, "data", _convert_="all")
+    model: LitVehicleClassifier = instantiate(cfg.model, "model", **datamodule.class_info(), _convert_="all")
     datamodule.use_preprocessing(model.preprocessing)
     return datamodule, model
 
@@ -73,8 +103,7 @@ def instantiate_trainer(cfg: DictConfig, callbacks: list[L.Callback], loggers: l
         rank_zero_warn(choice.warning)
     rank_zero_info(choice.describe())
     write_device_record(choice, Path(cfg.paths.output_dir))
-    return hydra.utils.instantiate(cfg.trainer, precision=choice.resolved, callbacks=callbacks,
-                                   logger=loggers or False)
+    return instantiate(cfg.trainer, "trainer", precision=choice.resolved, callbacks=callbacks, logger=loggers or False)
 
 
 @rank_zero_only
@@ -82,12 +111,7 @@ def write_device_record(choice: PrecisionChoice, run_dir: Path) -> Path:
     """`device.json` in the run folder: the precision asked for and resolved, the device, torch and threads."""
     record = {"precision": choice.as_dict(), "torch": torch.__version__, "torch_threads": torch.get_num_threads(),
               "cpu": cpu_info().model_name, "cpu_flags": cpu_info().reported_flags}
-    run_dir.mkdir(parents=True, exist_ok=True)
-    path = run_dir / "device.json"
-    temp = path.with_name(f".{path.name}.tmp")
-    temp.write_text(json.dumps(record, indent=2) + "\n")
-    temp.replace(path)
-    return path
+    return write_text(run_dir / "device.json", json.dumps(record, indent=2) + "\n")
 
 
 def log_hyperparameters(cfg: DictConfig, loggers: list[Logger]) -> None:

@@ -13,11 +13,16 @@ from torchmetrics import MaxMetric, MeanMetric
 from vehloc.data.preprocess import Preprocessing
 from vehloc.errors import VehlocError
 from vehloc.train.backbones import build_backbone
+from vehloc.train.checkpoints import (  # noqa: F401 - re-exported: the checkpoint functions' earlier home
+    PREPROCESSING_KEY,
+    CheckpointError,
+    check_classes,
+    preprocessing_of,
+    read_checkpoint,
+)
 from vehloc.train.metrics import split_metrics
 from vehloc.train.schedules import build_optimizer, build_schedule, param_groups
 
-
-PREPROCESSING_KEY = "preprocessing"
 
 
 class LitVehicleClassifier(L.LightningModule):
@@ -175,50 +180,16 @@ def display_name(make: str, model: str) -> str:
     return model if model.startswith(make) else f"{make} {model}".strip()
 
 
-def read_checkpoint(path: str | Path) -> dict[str, Any]:
-    """A Lightning checkpoint of LitVehicleClassifier, loaded with `weights_only=True`."""
-    path = Path(path)
-    if not path.is_file():
-        raise VehlocError(f"ckpt_path {path}: no such checkpoint file")
-    try:
-        checkpoint = torch.load(path, map_location="cpu", weights_only=True)
-    except Exception as exc:  # noqa: BLE001 - any unreadable file is a user error here
-        raise VehlocError(f"{path}: not a readable checkpoint ({exc})") from None
-    if "state_dict" not in checkpoint or "class_model_ids" not in checkpoint.get("hyper_parameters", {}):
-        raise VehlocError(f"{path}: not a vehloc classifier checkpoint (no state_dict and class table)")
-    return checkpoint
-
-
-def preprocessing_of(checkpoint: dict[str, Any], path: str | Path) -> Preprocessing:
-    """The preprocessing a checkpoint's classifier was trained with."""
-    if PREPROCESSING_KEY not in checkpoint:
-        raise VehlocError(f"{path}: the checkpoint has no preprocessing description (written by an older vehloc)")
-    try:
-        return Preprocessing.from_dict(checkpoint[PREPROCESSING_KEY])
-    except (TypeError, ValueError) as err:
-        raise VehlocError(f"{path}: bad preprocessing description ({err})") from None
-
-
-def load_classifier(checkpoint: dict[str, Any], **overrides: Any) -> LitVehicleClassifier:
+def load_classifier(checkpoint: dict[str, Any], source: str | Path = "checkpoint", **overrides: Any) -> LitVehicleClassifier:
     """Rebuild the classifier of a checkpoint (backbone not re-initialised from pretrained weights; hparams
     in `overrides` replaced) and load its weights."""
     hparams = {**checkpoint["hyper_parameters"], **overrides}
     hparams["backbone"] = {**hparams["backbone"], "pretrained": "none"}
-    model = LitVehicleClassifier(**hparams)
-    model.load_state_dict(checkpoint["state_dict"])
+    try:
+        model = LitVehicleClassifier(**hparams)
+        model.load_state_dict(checkpoint["state_dict"])
+    except (TypeError, RuntimeError, KeyError) as err:
+        raise CheckpointError(
+            f"{source}: the checkpoint's weights do not fit the network it describes "
+            f"({str(err).splitlines()[0][:200]})") from None
     return model
-
-
-def check_classes(checkpoint: dict[str, Any], class_model_ids: list[int], path: str | Path) -> None:
-    """Raise VehlocError unless the checkpoint was trained on exactly these classes (model ids, in order)."""
-    trained = list(checkpoint["hyper_parameters"]["class_model_ids"])
-    if trained != list(class_model_ids):
-        raise VehlocError(
-            f"{path}: checkpoint has {len(trained)} classes (model ids {_abbrev(trained)}), "
-            f"the data set has {len(class_model_ids)} (model ids {_abbrev(class_model_ids)})"
-        )
-
-
-def _abbrev(ids: list[int], shown: int = 6) -> str:
-    head = ", ".join(map(str, ids[:shown]))
-    return head + (f", ... ({len(ids)} in all)" if len(ids) > shown else "")

@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
+from vehloc.atomic import atomic_dir
 from vehloc.tables import markdown_table
 from vehloc.train.table1 import DIMS, EvalTables
 
@@ -58,8 +59,15 @@ def write_report(tables: EvalTables, names: Sequence[str], out_dir: Path, title:
                  run_line: str = "") -> list[Path]:
     """Write every table as CSV, `report.md` (Table 1, accuracy, dimension errors, confused pairs; `run_line`,
     e.g. the precision and device, under the summary) and `confusion_matrix.png` into `out_dir`; return the
-    written paths."""
-    out_dir.mkdir(parents=True, exist_ok=True)
+    written paths. The folder is built beside `out_dir` and takes its place whole when every file is written,
+    so an interrupt or a failure leaves earlier tables there as they were, never a mix."""
+    with atomic_dir(out_dir) as staging:
+        names_written = _write_report_files(tables, names, staging, title, run_line)
+    return [out_dir / name for name in names_written]
+
+
+def _write_report_files(tables: EvalTables, names: Sequence[str], out_dir: Path, title: str, run_line: str
+                        ) -> list[str]:
     written = []
     for name, frame in (
         ("table1", tables.table1),
@@ -89,7 +97,7 @@ def write_report(tables: EvalTables, names: Sequence[str], out_dir: Path, title:
         "![confusion matrix](confusion_matrix.png)",
     ]
     report = out_dir / "report.md"
-    report.write_text("\n\n".join(sections) + "\n")
+    report.write_text("\n\n".join(sections) + "\n", encoding="utf-8")
     written.append(report)
     written.append(write_confusion_png(tables.confusion, names, out_dir / "confusion_matrix.png"))
-    return written
+    return [path.name for path in written]

@@ -1,46 +1,58 @@
 """`vehloc-train`: fine-tune a vehicle-model classifier (Hydra config `conf/train.yaml`), then test it and
-write Table 1 into the run folder. Example: `vehloc-train experiment=demo`."""
+write Table 1 into the run folder. Example: `vehloc-train experiment=demo`.
+
+The settings are checked before Lightning is imported (`vehloc.train.params`), so a bad one is answered at
+once; Ctrl-C ends the run with `vehloc-train: interrupted` and exit code 130, its last complete checkpoint
+kept."""
 
 from __future__ import annotations
 
 from typing import Any
 
-import hydra
-import lightning as L
-from lightning.pytorch.utilities import rank_zero_info
 from omegaconf import DictConfig
 
 from vehloc.config import config_dir
-from vehloc.errors import exit_on_error
-from vehloc.train.instantiate import (
-    instantiate_callbacks,
-    instantiate_data_and_model,
-    instantiate_loggers,
-    instantiate_trainer,
-    log_hyperparameters,
-)
-from vehloc.train.module import check_classes, read_checkpoint
+from vehloc.errors import exit_on_error, hydra_main
+from vehloc.train.params import check_train_config
 
 
 def train(cfg: DictConfig) -> tuple[dict[str, float], dict[str, Any]]:
     """Fit (optionally resuming from `ckpt_path`) and test with the best checkpoint; return the metrics and
-    the objects of the run."""
+    the objects of the run. The settings are checked first; a checkpoint to resume from must be of the data's
+    classes (model ids and names)."""
+    check_train_config(cfg)
+    import lightning as L
+    from lightning.pytorch.utilities import rank_zero_info
+
+    from vehloc.train.checkpoints import check_classes, read_checkpoint
+    from vehloc.train.instantiate import (
+        instantiate_callbacks,
+        instantiate_data_and_model,
+        instantiate_loggers,
+        instantiate_trainer,
+        log_hyperparameters,
+        run_trainer,
+    )
+
     if cfg.get("seed") is not None:
-        L.seed_everything(cfg.seed, workers=True)
+        L.seed_everything(cfg.seed, workers=True, verbose=False)
+    checkpoint = read_checkpoint(cfg.ckpt_path) if cfg.get("ckpt_path") else None
     datamodule, model = instantiate_data_and_model(cfg)
-    if cfg.get("ckpt_path"):
-        check_classes(read_checkpoint(cfg.ckpt_path), model.hparams.class_model_ids, cfg.ckpt_path)
+    if checkpoint is not None:
+        hp = model.hparams
+        check_classes(checkpoint, hp.class_model_ids, cfg.ckpt_path, hp.class_makes, hp.class_models,
+                      f"data.root {datamodule.root}")
     callbacks = instantiate_callbacks(cfg.get("callbacks"))
     loggers = instantiate_loggers(cfg.get("logger"))
     trainer = instantiate_trainer(cfg, callbacks, loggers)
     log_hyperparameters(cfg, loggers)
     if cfg.get("train"):
-        trainer.fit(model, datamodule=datamodule, ckpt_path=cfg.get("ckpt_path"), weights_only=True)
+        run_trainer(trainer, "fit", model, datamodule=datamodule, ckpt_path=cfg.get("ckpt_path"), weights_only=True)
     metrics = {k: float(v) for k, v in trainer.callback_metrics.items()}
     if cfg.get("test"):
         best = trainer.checkpoint_callback.best_model_path if trainer.checkpoint_callback else ""
         rank_zero_info(f"testing {'checkpoint ' + best if best else 'the current weights'}")
-        trainer.test(model, datamodule=datamodule, ckpt_path=best or None, weights_only=True)
+        run_trainer(trainer, "test", model, datamodule=datamodule, ckpt_path=best or None, weights_only=True)
         metrics |= {k: float(v) for k, v in trainer.callback_metrics.items()}
     objects = {"cfg": cfg, "datamodule": datamodule, "model": model, "trainer": trainer, "callbacks": callbacks}
     return metrics, objects
@@ -52,7 +64,7 @@ def _run(cfg: DictConfig) -> float | None:
     return metrics.get(cfg.get("optimized_metric") or "")
 
 
-@hydra.main(version_base="1.3", config_path=str(config_dir()), config_name="train")
+@hydra_main("vehloc-train", str(config_dir()), "train")
 def main(cfg: DictConfig) -> float | None:
     return _run(cfg)
 

@@ -1,0 +1,46 @@
+"""The three key-footprint-point detectors together on one ROI, as the combination step uses them: a plate pose
+gives a plate and no wheels, a side-on pose wheels and no plate, and the footprint lines serve both."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from detector_scenes import BLACK, SILVER, heading_error_deg, render_case
+from vehloc.geometry.footprint import FootprintParams, detect_footprint
+from vehloc.geometry.plate import PlateParams, detect_plate
+from vehloc.geometry.wheels import WheelParams, detect_wheels
+
+
+def detect_all(case):
+    road_to_image = case.camera.road_to_image()
+    lines = detect_footprint(case.roi_bgr, case.mask, case.offset_px, road_to_image, case.camera_foot_mm,
+                             FootprintParams.from_config())
+    plate = detect_plate(case.roi_bgr, case.mask, case.offset_px, PlateParams.from_config())
+    wheels = detect_wheels(case.roi_bgr, case.mask, case.offset_px, road_to_image, case.camera_foot_mm,
+                           WheelParams.from_config())
+    return lines, plate, wheels
+
+
+@pytest.mark.parametrize("car", [SILVER, BLACK])
+def test_plate_branch(car):
+    """Rear towards the camera at 4 m: a plate (P within 2 px), no wheels, the length axis within 1.5 deg."""
+    case = render_case(car, "near_rear")
+    lines, plate, wheels = detect_all(case)
+    assert plate is not None and wheels is None
+    assert np.linalg.norm(plate.centre_px - case.camera.project(case.facing_plate().centre_mm[None])[0]) <= 2.0
+    assert heading_error_deg(lines.length_heading_deg, case.pose.heading_deg) <= 1.5
+
+
+@pytest.mark.parametrize("car", [SILVER, BLACK])
+def test_wheel_branch(car):
+    """Side-on at 10 m (Table 2 "middle 0"): two wheels whose outer contacts lie within 1.5 px of l_S, no plate,
+    and Q between the two contacts."""
+    case = render_case(car, "table2_middle_0")
+    lines, plate, wheels = detect_all(case)
+    assert plate is None and wheels is not None and len(wheels.wheels) == 2
+    for wheel in wheels.wheels:
+        assert abs(lines.side_line_px @ np.append(wheel.outer_contact_px, 1.0)) <= 1.5
+    rear, front = (wheel.contact_px for wheel in wheels.wheels)
+    along = (wheels.q_px - rear) @ (front - rear) / np.sum((front - rear) ** 2)
+    assert 0.4 < along < 0.6

@@ -1,0 +1,87 @@
+"""`vehloc-localize` on a rendered scene: a video with no vehicle gives empty records and a line saying so
+(exit 0); a vehicle cut by the frame's edge is recorded as not localized, with the reason; a calibration of
+another image size and an ONNX file that is no vehloc classifier are each refused in one line, before any
+frame is read."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import onnx
+import pandas as pd
+import pytest
+from bad_input import assert_one_error, run_cli, write_handmade_onnx
+from onnx import TensorProto, helper
+
+pytestmark = pytest.mark.slow  # renders a 230-frame scene and localizes it
+
+EMPTY_FRAMES = 150  # the scene's empty road before the car comes (conf/scene/table2_site.yaml)
+
+
+@pytest.fixture(scope="module")
+def cut_scene(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """The `cut_by_edge` scene, its calibration from its own markers, and a handmade classifier."""
+    folder = tmp_path_factory.mktemp("cut_by_edge")
+    scene = folder / "scene"
+    rendered = run_cli("vehloc-scene", "scene=cut_by_edge", f"out={scene}", cwd=folder)
+    assert rendered.returncode == 0, rendered.stderr[-2000:]
+    calibrated = run_cli("vehloc-calibrate", f"site={scene / 'site.yaml'}", f"image={scene / 'video.avi'}",
+                         f"hydra.run.dir={folder / 'calibration'}", cwd=folder)
+    assert calibrated.returncode == 0, calibrated.stderr[-2000:]
+    return {"video": scene / "video.avi", "calibration": folder / "calibration" / "calibration.json",
+            "model": write_handmade_onnx(folder / "model.onnx", model_ids=(7, 9, 12)), "folder": folder}
+
+
+def _localize(files: dict[str, Path], out: Path, *overrides: str):
+    return run_cli("vehloc-localize", f"video={files['video']}", f"calibration={files['calibration']}",
+                   f"model={files['model']}", f"hydra.run.dir={out}", "annotate=false", *overrides, cwd=files["folder"])
+
+
+def test_a_video_with_no_vehicle_gives_empty_records_and_says_so(cut_scene: dict[str, Path], tmp_path: Path) -> None:
+    result = _localize(cut_scene, tmp_path / "run", f"max_frames={EMPTY_FRAMES - 10}")
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert "no vehicle stopped in" in result.stdout
+    assert json.loads((tmp_path / "run" / "records.json").read_text()) == []
+
+
+def test_a_vehicle_cut_by_the_frame_edge_is_not_localized_with_the_reason(cut_scene: dict[str, Path],
+                                                                           tmp_path: Path) -> None:
+    result = _localize(cut_scene, tmp_path / "run")
+    assert result.returncode == 0, result.stderr[-2000:]
+    records = pd.read_csv(tmp_path / "run" / "records.csv")
+    assert len(records) == 1
+    assert records.loc[0, "status"] == "not localized"
+    assert records.loc[0, "reason"] == "the vehicle touches the frame's edge"
+    assert "centre_x_mm" not in records.columns  # no invented position
+
+
+def test_a_calibration_of_another_image_size_is_refused(cut_scene: dict[str, Path], tmp_path: Path) -> None:
+    calibration = json.loads(cut_scene["calibration"].read_text())
+    calibration["image_size_px"] = [640, 360]
+    other = tmp_path / "calibration.json"
+    other.write_text(json.dumps(calibration))
+    result = _localize({**cut_scene, "calibration": other}, tmp_path / "run")
+    assert_one_error(result, "vehloc-localize", "calibrates 640x360 px images", "video.avi is 1280x720 px")
+    assert not (tmp_path / "run" / "records.csv").exists()
+
+
+def _plain_onnx(path: Path) -> Path:
+    """A valid ONNX graph (images -> their identity) without vehloc's metadata."""
+    images = helper.make_tensor_value_info("images", TensorProto.FLOAT, [1, 3, 32, 32])
+    output = helper.make_tensor_value_info("logits", TensorProto.FLOAT, [1, 3, 32, 32])
+    graph = helper.make_graph([helper.make_node("Identity", ["images"], ["logits"])], "plain", [images], [output])
+    onnx.save(helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)]), path)
+    return path
+
+
+@pytest.mark.parametrize("kind", ["random_bytes", "plain_onnx"])
+def test_an_onnx_file_that_is_no_vehloc_model_is_refused(kind: str, cut_scene: dict[str, Path], tmp_path: Path) -> None:
+    model = tmp_path / "model.onnx"
+    if kind == "random_bytes":
+        model.write_bytes(bytes(range(256)) * 8)
+    else:
+        _plain_onnx(model)
+    result = _localize({**cut_scene, "model": model}, tmp_path / "run")
+    assert_one_error(result, "vehloc-localize", str(model))
+    assert not (tmp_path / "run" / "records.csv").exists()

@@ -1,0 +1,54 @@
+"""The full-resolution vehicle silhouette against a textured road: a body face darker than the road stays the
+vehicle's (doubtful but solid); below it, a darker grainy band the shadow test cannot tell from the vehicle
+(its grain does not correlate with the road's, as under a car where the light is mottled) is in the mask but
+doubtful and not solid, and the trimmed mask ends at the face's bottom edge."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vehloc.geometry.roi import RoiParams, vehicle_silhouette
+
+FACE_ROWS, FACE_COLUMNS = (20, 60), (30, 90)  # the body face, half-open rows and columns
+SHADOW_ROWS = (60, 75)                        # the grainy dark band below it
+
+
+def _road(shape: tuple[int, int], seed: int) -> np.ndarray:
+    """A grey road with the grain of asphalt (level 120, standard deviation about 8)."""
+    rng = np.random.default_rng(seed)
+    grey = np.clip(120 + 8 * rng.standard_normal(shape), 0, 255)
+    return np.repeat(grey[:, :, None], 3, axis=2).astype(np.uint8)
+
+
+@pytest.fixture(scope="module")
+def scene() -> tuple[np.ndarray, np.ndarray]:
+    background = _road((100, 120), seed=1)
+    frame = background.copy()
+    frame[slice(*SHADOW_ROWS), slice(*FACE_COLUMNS)] = _road((SHADOW_ROWS[1] - SHADOW_ROWS[0],
+                                                              FACE_COLUMNS[1] - FACE_COLUMNS[0]), seed=2) // 2
+    frame[slice(*FACE_ROWS), slice(*FACE_COLUMNS)] = (70, 72, 75)  # a smooth dark-grey body face
+    return frame, background
+
+
+def test_the_face_is_solid_and_its_shadow_is_not(scene: tuple[np.ndarray, np.ndarray]) -> None:
+    frame, background = scene
+    silhouette = vehicle_silhouette(frame, background, RoiParams.from_config())
+    face = (slice(FACE_ROWS[0] + 4, FACE_ROWS[1] - 4), slice(FACE_COLUMNS[0] + 4, FACE_COLUMNS[1] - 4))
+    shadow = (slice(SHADOW_ROWS[0] + 4, SHADOW_ROWS[1] - 4), slice(FACE_COLUMNS[0] + 4, FACE_COLUMNS[1] - 4))
+    assert silhouette.mask[face].all() and silhouette.solid[face].all()
+    assert (silhouette.weights[face] < 1.0).all()  # darker than the road: doubtful for the fit
+    assert silhouette.mask[shadow].all() and (silhouette.weights[shadow] < 1.0).all()
+    assert not silhouette.solid[shadow].any()
+
+
+def test_the_trimmed_mask_ends_at_the_face_bottom(scene: tuple[np.ndarray, np.ndarray]) -> None:
+    """Each inner column's lowest trimmed pixel lies within the texture window's half (3 px) of the face's
+    bottom row, whatever the shadow below it does to the untrimmed mask."""
+    frame, background = scene
+    silhouette = vehicle_silhouette(frame, background, RoiParams.from_config())
+    trimmed = silhouette.trimmed()
+    columns = range(FACE_COLUMNS[0] + 4, FACE_COLUMNS[1] - 4)
+    lowest = np.array([np.flatnonzero(trimmed[:, c]).max() for c in columns])
+    assert np.all(np.abs(lowest - (FACE_ROWS[1] - 1)) <= 3), lowest
+    assert silhouette.mask[SHADOW_ROWS[1] - 2].any() and not trimmed[FACE_ROWS[1] + 4:].any()

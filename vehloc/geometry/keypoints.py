@@ -1,0 +1,159 @@
+"""The paper's key footprint points (Sec. II-E) and its placement of the box (Sec. II-F).
+
+The plate branch, first: O is the footprint point below the plate's middle P, where the image of the
+vertical through P (towards the camera's vertical vanishing point) meets the front line l_F; C lies along
+the side line's direction, into the vehicle; the box's visible end is stuck to O_W with its long
+centreline along O_W C_W. The wheel branch, when no plate is found: the two near tyres' contacts on the side
+line l_S (the outer faces' contacts with the road, where l_S touches the tyres; taken from the tyres
+themselves, as a shadow beside the car can push the silhouette's l_S outwards), Q their middle on the road, C along the front line's direction, into the vehicle; the
+box's near side is stuck to Q_W between the axles with its short centreline along Q_W C_W.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from vehloc.config import build_params
+from vehloc.data.boxes import Box
+from vehloc.data.shapes import VehicleShape
+from vehloc.data.specs import VehicleSpec
+from vehloc.errors import VehlocError
+from vehloc.geometry.footprint import FootprintLines, FootprintParams, detect_footprint
+from vehloc.geometry.placement import VehicleBox, axis_difference_deg, direction_of, heading_of, place_on_end, place_on_side
+from vehloc.geometry.plate import PlateParams, detect_plate
+from vehloc.geometry.roi import Silhouette
+from vehloc.geometry.site_calibration import CameraCalibration
+from vehloc.geometry.wheels import WheelParams, detect_wheels
+
+C_DISTANCE_MM = 1000.0
+"""How far along the reference direction the paper's point C is taken."""
+END_DEPTH_MM = 150.0
+"""The depth of a vehicle's end face, for the height of its lowest point."""
+
+
+class NotLocalized(VehlocError):
+    """The key points cannot be found; the message says why."""
+
+
+@dataclass(frozen=True)
+class DetectorParams:
+    """The settings of the three detectors (`conf/footprint`, `conf/plate`, `conf/wheels`)."""
+
+    footprint: FootprintParams
+    plate: PlateParams
+    wheels: WheelParams
+
+    @classmethod
+    def from_config(cls) -> DetectorParams:
+        return cls(FootprintParams.from_config(), PlateParams.from_config(), WheelParams.from_config())
+
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, object]) -> DetectorParams:
+        """From a composed config holding the `footprint`, `plate` and `wheels` groups."""
+        return cls(build_params(FootprintParams, values["footprint"], "footprint"),
+                   build_params(PlateParams, values["plate"], "plate"),
+                   build_params(WheelParams, values["wheels"], "wheels"))
+
+
+@dataclass(frozen=True)
+class Placement:
+    """The paper's estimate: the box, the branch (`plate` or `wheels`), the key point (O or Q) and C on the
+    road, and the distance that sets the heading (for its uncertainty)."""
+
+    box: VehicleBox
+    kind: str
+    key_point_mm: np.ndarray
+    c_point_mm: np.ndarray
+    baseline_mm: float
+
+
+def inward(heading_deg: float, point_mm: np.ndarray, camera_foot_mm: np.ndarray) -> np.ndarray:
+    """The road direction of `heading_deg` (or its opposite) that points from `point_mm` away from the camera."""
+    direction = direction_of(heading_deg)
+    return direction if direction @ (point_mm - camera_foot_mm) >= 0 else -direction
+
+
+def end_bottom_height_mm(shape: VehicleShape, visible_end: str | None) -> float:
+    """How high the lowest point of the vehicle's end face stands (its bumper's lower edge): from the shape's
+    points within `END_DEPTH_MM` of that end (`front`, `rear`, or the mean of both when unknown)."""
+    points = shape.points_mm
+    heights = {}
+    for end, sign in (("front", 1.0), ("rear", -1.0)):
+        x = sign * points[:, 0]
+        heights[end] = float(points[x >= x.max() - END_DEPTH_MM, 2].min())
+    return heights[visible_end] if visible_end in heights else (heights["front"] + heights["rear"]) / 2
+
+
+def lowered_line_mm(line_mm: np.ndarray, height_mm: float, camera_centre_mm: np.ndarray) -> np.ndarray:
+    """The road line below a horizontal 3D line at `height_mm` whose image maps to the road as `line_mm` (the
+    homography takes every point of it along the camera's ray down to the road, too far by the factor
+    camera height / (camera height - height)): the line scaled about the camera's foot."""
+    k = (camera_centre_mm[2] - height_mm) / camera_centre_mm[2]
+    a, b, c = line_mm
+    at_foot = a * camera_centre_mm[0] + b * camera_centre_mm[1]
+    return np.array([a, b, k * (at_foot + c) - at_foot])
+
+
+def below_plate_mm(plate_centre_mm: np.ndarray, front_line_mm: np.ndarray, camera_foot_mm: np.ndarray) -> np.ndarray:
+    """O: where the vertical through the plate's middle P meets the front footprint line, on the road. The
+    vertical's image maps to the road as the line from the camera's foot through P's road image."""
+    vertical = np.cross([*camera_foot_mm, 1.0], [*plate_centre_mm, 1.0])
+    point = np.cross(vertical, front_line_mm)
+    if abs(point[2]) < 1e-12:
+        raise NotLocalized("the plate's vertical runs parallel to the front footprint line")
+    return point[:2] / point[2]
+
+
+def paper_placement(
+    roi_bgr: np.ndarray, silhouette: Silhouette, roi: Box, calibration: CameraCalibration, spec: VehicleSpec,
+    shape: VehicleShape, params: DetectorParams, visible_end: str | None = None,
+) -> Placement:
+    """The paper's placement of the predicted model's box (`spec`) from the vehicle in `roi` (its crop and
+    silhouette); NotLocalized saying why when the key points cannot be found.
+
+    Plate branch: the front footprint line is the lower edge at the visible end of the silhouette trimmed of
+    the shadow below it; that edge is the bumper's, a bumper's height above the road, so it is lowered to the
+    road by that height, the predicted model's (`shape`; `visible_end` `front` or `rear` when known). Wheel
+    branch: the lines of the whole silhouette, whose dark tyres reach the road."""
+    road_to_image, offset = calibration.road_to_image, np.array([roi.x0, roi.y0], dtype=float)
+    foot = calibration.camera.centre_mm[:2]
+    length_mm, width_mm = spec.length_mm, spec.width_mm
+    plate = detect_plate(roi_bgr, silhouette.mask, offset, params.plate)
+    if plate is not None:
+        lines = _footprint_lines(roi_bgr, silhouette.trimmed(), offset, calibration, params)
+        p_mm = road_to_image.inverse.map_visible(plate.centre_px[None], "P")[0]
+        front_line = lowered_line_mm(lines.front_line_mm, end_bottom_height_mm(shape, visible_end), calibration.camera.centre_mm)
+        o_mm = below_plate_mm(p_mm, front_line, foot)
+        into = inward(lines.length_heading_deg, o_mm, foot)
+        box = place_on_end(o_mm, into, length_mm, width_mm)
+        return Placement(box, "plate", o_mm, o_mm + C_DISTANCE_MM * into, length_mm / 2)
+    lines = _footprint_lines(roi_bgr, silhouette.mask, offset, calibration, params)
+    wheels = detect_wheels(roi_bgr, silhouette.mask, offset, road_to_image, foot, params.wheels)
+    if wheels is None or len(wheels.wheels) < 2:
+        found = "one wheel" if wheels is not None else "no wheel"
+        raise NotLocalized(f"neither a licence plate nor two wheels found (found {found})")
+    contacts_px = np.array([w.outer_contact_px for w in wheels.wheels])
+    contacts_mm = road_to_image.inverse.map_visible(contacts_px, "tyre contact")
+    q_mm = contacts_mm.mean(axis=0)
+    into = inward(length_axis_by_wheels(lines.length_heading_deg, contacts_mm) + 90.0, q_mm, foot)
+    box = place_on_side(q_mm, into, length_mm, width_mm)
+    return Placement(box, "wheels", q_mm, q_mm + C_DISTANCE_MM * into, float(np.linalg.norm(contacts_mm[1] - contacts_mm[0])))
+
+
+def length_axis_by_wheels(length_heading_deg: float, contacts_mm: np.ndarray) -> float:
+    """The footprint's length axis, or its perpendicular when that is the one the two wheels' contacts run
+    along (the wheels of one side lie along the length; the lines alone can mistake an end for a side)."""
+    wheels_deg = heading_of(contacts_mm[1] - contacts_mm[0])
+    return length_heading_deg if abs(axis_difference_deg(wheels_deg, length_heading_deg)) <= 45.0 else length_heading_deg + 90.0
+
+
+def _footprint_lines(roi_bgr: np.ndarray, mask: np.ndarray, offset: np.ndarray, calibration: CameraCalibration,
+                     params: DetectorParams) -> FootprintLines:
+    lines = detect_footprint(roi_bgr, mask, offset, calibration.road_to_image, calibration.camera.centre_mm[:2],
+                             params.footprint)
+    if lines is None:
+        raise NotLocalized("no footprint lines: the vehicle's edges show no road direction")
+    return lines

@@ -1,0 +1,242 @@
+"""The localization pipeline over a video: vehicle ROIs and tracks, one classification per track, key
+points and the paper's placement, the model fit, and a record per vehicle (when it stops, or every frame).
+
+Per frame: the background model gives vehicle boxes, the tracker follows them and says when one stops, and
+each track keeps a few crops for its vote. When a vehicle is to be localized its crops are classified
+together (track voting), the key points (plate, else wheels) place the box of the predicted model's
+dimensions (the paper's method), the predicted model's shape is fitted to its silhouette from there (the
+model fit), and each estimate gets its 1-sigma uncertainty. A vehicle cut by the frame's edge, or with
+neither plate nor wheels found, is recorded as not localized, with the reason.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from vehloc.config import params_from_config
+from vehloc.data.boxes import Box
+from vehloc.errors import VehlocError
+from vehloc.geometry.keypoints import DetectorParams, NotLocalized, paper_placement
+from vehloc.geometry.model_fit import FitParams, fit_model
+from vehloc.geometry.placement import VehicleBox, facing, heading_of
+from vehloc.geometry.projective import HorizonError
+from vehloc.geometry.roi import StoppedVehicleTracker, Track, TrackerParams, VehicleRoiExtractor, RoiParams
+from vehloc.geometry.site_calibration import CameraCalibration
+from vehloc.geometry.timing import StageClock
+from vehloc.geometry.tracks import TrackVotes
+from vehloc.geometry.uncertainty import (
+    Uncertainty,
+    calibration_part,
+    dimension_spread_mm,
+    fitted_spread,
+    paper_dimension_part,
+    road_mm_per_px,
+)
+from vehloc.infer.classifier import VehicleClassifier
+
+LOCALIZED, NOT_LOCALIZED = "localized", "not localized"
+
+
+@dataclass(frozen=True)
+class PipelineParams:
+    """Settings of the pipeline itself (`conf/localize/pipeline/default.yaml`)."""
+
+    every_frame: bool
+    vote_frames: int
+    detector_roi_fraction: float
+    border_margin_px: int
+    min_travel_mm: float
+    uncertainty_top_k: int
+    uncertainty_min_probability: float
+    fit: bool
+
+    @classmethod
+    def from_config(cls, **overrides: object) -> PipelineParams:
+        """The settings of `conf/localize/pipeline/default.yaml`, with `overrides`."""
+        return params_from_config(cls, "localize/pipeline/default.yaml", overrides)
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """One method's localization: the box on the road, the key point it stands on (paper's method), its
+    1-sigma uncertainty, and the silhouette overlap reached (model fit)."""
+
+    method: str
+    box: VehicleBox
+    key_point: str | None
+    uncertainty: Uncertainty
+    iou: float | None = None
+
+
+@dataclass(frozen=True)
+class VehicleRecord:
+    """What the pipeline says of one vehicle at one frame."""
+
+    track_id: int
+    frame: int
+    box_px: Box
+    status: str
+    reason: str = ""
+    model_id: int | None = None
+    make: str = ""
+    model: str = ""
+    probability: float | None = None
+    dims_mm: tuple[float, float, float] | None = None
+    estimates: tuple[Estimate, ...] = ()
+
+    def estimate(self, method: str) -> Estimate | None:
+        return next((e for e in self.estimates if e.method == method), None)
+
+    def rows(self) -> list[dict[str, object]]:
+        """Flat table rows: one per estimate, or one saying why there is none."""
+        base: dict[str, object] = {
+            "track_id": self.track_id, "frame": self.frame, "status": self.status, "reason": self.reason,
+            "box_x0_px": self.box_px.x0, "box_y0_px": self.box_px.y0, "box_x1_px": self.box_px.x1,
+            "box_y1_px": self.box_px.y1, "model_id": self.model_id, "make": self.make, "model": self.model,
+            "probability": self.probability,
+            **dict(zip(("length_mm", "width_mm", "height_mm"), self.dims_mm or (None, None, None))),
+        }
+        if not self.estimates:
+            return [base]
+        rows = []
+        for e in self.estimates:
+            corners = e.box.corners_mm()
+            rows.append(base | {
+                "method": e.method, "key_point": e.key_point, "centre_x_mm": e.box.centre_mm[0],
+                "centre_y_mm": e.box.centre_mm[1], "heading_deg": e.box.heading_deg,
+                **{f"corner{i}_{axis}_mm": corners[i, j] for i in range(4) for j, axis in enumerate("xy")},
+                "sigma_position_mm": e.uncertainty.position_mm, "sigma_heading_deg": e.uncertainty.heading_deg,
+                "iou": e.iou,
+            })
+        return rows
+
+
+@dataclass
+class _TrackState:
+    votes: TrackVotes
+    ground_points_mm: list[np.ndarray] = field(default_factory=list)
+
+
+class Localizer:
+    """Feed it frames in order; it returns the records of the vehicles localized at each frame."""
+
+    def __init__(
+        self,
+        classifier: VehicleClassifier,
+        calibration: CameraCalibration,
+        params: PipelineParams | None = None,
+        roi: RoiParams | None = None,
+        tracker: TrackerParams | None = None,
+        detectors: DetectorParams | None = None,
+        fit: FitParams | None = None,
+        clock: StageClock | None = None,
+    ) -> None:
+        if calibration.camera is None:
+            raise VehlocError(f"{calibration.source}: no pinhole camera can be recovered from this calibration")
+        self.classifier = classifier
+        self.calibration = calibration
+        self.params = params or PipelineParams.from_config()
+        self.extractor = VehicleRoiExtractor(roi)
+        self.tracker = StoppedVehicleTracker(tracker)
+        self.detectors = detectors or DetectorParams.from_config()
+        self.fit_params = fit or FitParams.from_config()
+        self.states: dict[int, _TrackState] = {}
+        self.clock = clock or StageClock()
+
+    def process(self, frame_index: int, frame_bgr: np.ndarray) -> list[VehicleRecord]:
+        """Feed one frame; the records of the vehicles localized at it."""
+        height_px, width_px = frame_bgr.shape[:2]
+        self.calibration.check_image_size(width_px, height_px, f"frame {frame_index}")
+        with self.clock.stage("background"):
+            boxes = self.extractor.apply(frame_bgr)
+        with self.clock.stage("tracking"):
+            stopped = self.tracker.update(boxes, frame_index)
+            live = [t for t in self.tracker.tracks if t.frames[-1] == frame_index]
+            for track in live:
+                state = self.states.setdefault(track.track_id, _TrackState(TrackVotes(self.params.vote_frames)))
+                state.votes.add(frame_bgr, track.box)
+                bottom = np.array([[track.box.centre_px[0], track.box.y1 - 1.0]])
+                state.ground_points_mm.append(self.calibration.road_to_image.inverse(bottom)[0])
+        due = live if self.params.every_frame else stopped
+        return [self.localize(track, frame_index, frame_bgr) for track in due]
+
+    def travel_heading_deg(self, track: Track) -> float | None:
+        """The road direction the track's box bottom moved in, when it moved far enough to tell."""
+        points = [p for p in self.states[track.track_id].ground_points_mm if np.all(np.isfinite(p))]
+        if len(points) < 2 or np.linalg.norm(points[-1] - points[0]) < self.params.min_travel_mm:
+            return None
+        return heading_of(points[-1] - points[0])
+
+    def visible_end(self, track: Track) -> str | None:
+        """`front` when the vehicle came towards the camera, `rear` when it went away, None when it did not
+        move far enough to tell."""
+        points = [p for p in self.states[track.track_id].ground_points_mm if np.all(np.isfinite(p))]
+        if len(points) < 2 or np.linalg.norm(points[-1] - points[0]) < self.params.min_travel_mm:
+            return None
+        foot = self.calibration.camera.centre_mm[:2]
+        return "front" if np.linalg.norm(points[-1] - foot) < np.linalg.norm(points[0] - foot) else "rear"
+
+    def localize(self, track: Track, frame_index: int, frame_bgr: np.ndarray) -> VehicleRecord:
+        """The record of one tracked vehicle at this frame."""
+        box = track.box
+        height_px, width_px = frame_bgr.shape[:2]
+        if box.touches_border(width_px, height_px, self.params.border_margin_px):
+            return VehicleRecord(track.track_id, frame_index, box, NOT_LOCALIZED, "the vehicle touches the frame's edge")
+        with self.clock.stage("classification"):
+            probabilities = self.states[track.track_id].votes.vote(self.classifier)
+        top1 = self.classifier.predictions(probabilities[None], top_k=1)[0].top1
+        spec = next(c for c in self.classifier.classes if c.model_id == top1.model_id)
+        record = VehicleRecord(track.track_id, frame_index, box, LOCALIZED, "", top1.model_id, top1.make, top1.model,
+                               top1.probability, tuple(float(v) for v in spec.dims_mm))
+        roi = box.enlarged(self.params.detector_roi_fraction, width_px, height_px)
+        try:
+            with self.clock.stage("key points"):
+                silhouette = self.extractor.foreground(roi)
+                placement = paper_placement(roi.crop(frame_bgr), silhouette, roi, self.calibration, spec,
+                                            self.classifier.metadata.shape_of(spec.model_id), self.detectors,
+                                            self.visible_end(track))
+        except (NotLocalized, HorizonError) as why:
+            return VehicleRecord(**{**record.__dict__, "status": NOT_LOCALIZED, "reason": str(why)})
+        travel = self.travel_heading_deg(track)
+        paper_box = facing(placement.box, travel) if travel is not None else placement.box
+        estimates = [Estimate("paper", paper_box, placement.kind, self._paper_uncertainty(paper_box, placement.kind,
+                                                                                         probabilities, placement.baseline_mm))]
+        if self.params.fit:
+            with self.clock.stage("model fit"):
+                estimates.append(self._fit(paper_box, silhouette.weights, roi, probabilities, travel))
+        return VehicleRecord(**{**record.__dict__, "estimates": tuple(estimates)})
+
+    def _calibration_part(self, box: VehicleBox, baseline_mm: float) -> tuple[float, float]:
+        mm_per_px = road_mm_per_px(self.calibration.road_to_image, box.centre_mm)
+        return calibration_part(self.calibration.rms_reprojection_px, mm_per_px, baseline_mm)
+
+    def _paper_uncertainty(self, box: VehicleBox, kind: str, probabilities: np.ndarray, baseline_mm: float) -> Uncertainty:
+        spread = dimension_spread_mm(probabilities, self.classifier.metadata.dims_mm, self.params.uncertainty_top_k)
+        return Uncertainty.combined(paper_dimension_part(kind, spread), self._calibration_part(box, baseline_mm))
+
+    def _fit(self, start: VehicleBox, weights: np.ndarray, roi: Box, probabilities: np.ndarray,
+             travel: float | None) -> Estimate:
+        """The predicted model's shape fitted from the paper's placement; its uncertainty from refitting the
+        other probable models' shapes."""
+        camera, metadata = self.calibration.camera, self.classifier.metadata
+        order = np.argsort(-probabilities, kind="stable")[: self.params.uncertainty_top_k]
+        candidates = [i for i in order if i == order[0] or probabilities[i] >= self.params.uncertainty_min_probability]
+        fits = []
+        for index in candidates:
+            spec = metadata.classes[index]
+            begin = VehicleBox(start.centre_mm, start.heading_deg, spec.length_mm, spec.width_mm)
+            fits.append(fit_model(camera, weights, roi, metadata.shape_of(spec.model_id), begin, self.fit_params))
+        best = fits[0]
+        box = facing(best.box, travel) if travel is not None else best.box
+        dimensions = fitted_spread([f.box for f in fits], probabilities[candidates]) if len(fits) > 1 else (0.0, 0.0)
+        uncertainty = Uncertainty.combined(dimensions, self._calibration_part(box, box.length_mm / 2))
+        return Estimate("fit", box, None, uncertainty, best.iou)
+
+
+def localize_frames(localizer: Localizer, frames: Iterable[np.ndarray]) -> Iterator[VehicleRecord]:
+    """Run the localizer over frames, yielding the records as they come."""
+    for frame_index, frame in enumerate(frames):
+        yield from localizer.process(frame_index, frame)

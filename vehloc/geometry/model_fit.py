@@ -1,0 +1,120 @@
+"""The model fit, beyond the paper: with the full camera (K, R, t) from the calibration and the predicted
+model's shape (its convex parts, or the cuboid of its length, width and height), find the pose (x, y,
+heading) whose projected silhouette best overlaps the vehicle's foreground. Starts from the paper's
+placement; the overlap is a weighted intersection over union (foreground pixels that may be shadow count
+less), measured on a supersampled grid so that it varies smoothly enough for Nelder-Mead."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from scipy.optimize import minimize
+
+from vehloc.config import params_from_config
+from vehloc.data.boxes import Box
+from vehloc.data.shapes import VehicleShape
+from vehloc.geometry.camera import PinholeCamera
+from vehloc.geometry.placement import VehicleBox, heading_difference_deg
+
+SUBPIXEL_SHIFT = 4
+
+
+@dataclass(frozen=True)
+class FitParams:
+    """Settings of the model fit (`conf/localize/fit/default.yaml`)."""
+
+    supersample: int
+    start_step_mm: float
+    start_step_deg: float
+    tolerance_mm: float
+    tolerance_deg: float
+    max_evaluations: int
+    try_reversed: bool
+
+    @classmethod
+    def from_config(cls, **overrides: object) -> FitParams:
+        """The settings of `conf/localize/fit/default.yaml`, with `overrides`."""
+        return params_from_config(cls, "localize/fit/default.yaml", overrides)
+
+
+@dataclass(frozen=True)
+class ModelFit:
+    """The fitted footprint, the overlap it reaches and the silhouette evaluations it took."""
+
+    box: VehicleBox
+    iou: float
+    evaluations: int
+
+
+def shape_points_world(shape: VehicleShape, box: VehicleBox) -> list[np.ndarray]:
+    """The shape's parts placed at the box's centre and heading, world mm (N_i, 3) each."""
+    c, s = np.cos(np.radians(box.heading_deg)), np.sin(np.radians(box.heading_deg))
+    rotation = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    offset = np.array([box.centre_mm[0], box.centre_mm[1], 0.0])
+    return [part @ rotation.T + offset for part in shape.parts]
+
+
+def silhouette(camera: PinholeCamera, shape: VehicleShape, box: VehicleBox, roi: Box, supersample: int) -> np.ndarray:
+    """The shape's silhouette at `box` inside `roi`, as a (roi height, roi width) x `supersample` bool mask."""
+    canvas = np.zeros((roi.height_px * supersample, roi.width_px * supersample), np.uint8)
+    parts = shape_points_world(shape, box)
+    pixels = camera.project(np.concatenate(parts))
+    if not np.all(np.isfinite(pixels)):
+        return canvas > 0  # part of the vehicle behind the camera: no silhouette to compare
+    scaled = ((pixels - [roi.x0, roi.y0] + 0.5) * supersample - 0.5) * (1 << SUBPIXEL_SHIFT)
+    start = 0
+    for part in parts:
+        hull = cv2.convexHull(np.round(scaled[start:start + len(part)]).astype(np.int32))
+        cv2.fillConvexPoly(canvas, hull, 1, cv2.LINE_8, SUBPIXEL_SHIFT)
+        start += len(part)
+    return canvas > 0
+
+
+def overlap(template: np.ndarray, weights: np.ndarray) -> float:
+    """Weighted intersection over union of a bool template and foreground weights in [0, 1]: the weight the
+    template covers over the template's area plus the weight it leaves out (plain IoU for a bool mask)."""
+    covered = float(weights[template].sum())
+    union = np.count_nonzero(template) + float(weights.sum()) - covered
+    return covered / union if union else 0.0
+
+
+def fit_model(
+    camera: PinholeCamera,
+    weights: np.ndarray,
+    roi: Box,
+    shape: VehicleShape,
+    start: VehicleBox,
+    params: FitParams | None = None,
+) -> ModelFit:
+    """The pose of `shape` (length and width as `start`'s) that best overlaps the vehicle's foreground inside
+    `roi`: `weights`, a (roi height, roi width) array in [0, 1] (a bool mask, or how sure each pixel is),
+    starting from `start`."""
+    params = params or FitParams.from_config()
+    ss = params.supersample
+    target = cv2.resize(np.asarray(weights, dtype=np.float32), (roi.width_px * ss, roi.height_px * ss),
+                        interpolation=cv2.INTER_NEAREST)
+
+    # Nelder-Mead stops on one tolerance for all coordinates: the heading is scaled to make it the angular one
+    per_deg = params.tolerance_mm / params.tolerance_deg
+
+    def box_of(values: np.ndarray) -> VehicleBox:
+        return VehicleBox(values[:2].copy(), float(values[2] / per_deg), start.length_mm, start.width_mm)
+
+    def cost(values: np.ndarray) -> float:
+        return 1.0 - overlap(silhouette(camera, shape, box_of(values), roi, ss), target)
+
+    headings = [start.heading_deg] + ([heading_difference_deg(start.heading_deg + 180.0, 0.0)] if params.try_reversed else [])
+    fits = []
+    for heading_deg in headings:
+        x0 = np.array([start.centre_mm[0], start.centre_mm[1], heading_deg * per_deg])
+        steps = np.diag([params.start_step_mm, params.start_step_mm, params.start_step_deg * per_deg])
+        result = minimize(
+            cost, x0, method="Nelder-Mead",
+            options={"initial_simplex": np.vstack([x0, x0 + steps]), "xatol": params.tolerance_mm,
+                     "fatol": 1e-7, "maxfev": params.max_evaluations},
+        )
+        fits.append((1.0 - float(result.fun), box_of(result.x), int(result.nfev)))
+    iou, box, _ = max(fits, key=lambda fit: fit[0])
+    return ModelFit(box, iou, sum(fit[2] for fit in fits))

@@ -1,0 +1,299 @@
+"""Wheels in a vehicle ROI (paper, Sec. II-E, after Hutter and Brewer's matching of 2-D ellipses to 3-D circles):
+each near-side wheel's ellipse and its ground contact, and Q, the middle of two contacts.
+
+Tyres are the darkest part of the lower silhouette; a rim is a hole in that darkness (taken at a few levels
+above the darkest values, for light and for dark rims), and its outline is the image of a circle in a vertical
+plane, fitted by an ellipse (`cv2.fitEllipse`). Only the near-side wheels
+show their rims: the far side's are turned away. The circle's image gives its own geometry projectively: the
+polar of the vertical vanishing point (the image of the camera's foot point) with respect to the ellipse is
+the wheel's horizontal diameter, which meets the horizon in the vanishing point of the wheel's plane, and the
+polar of that point is its vertical diameter, through the centre and the bottom of the tyre, which is
+concentric with the rim. Where the vertical diameter leaves the silhouette, the tyre's outer face touches
+the road; the tyre's contact (the middle of its tread) lies half a tyre width further in, across the wheel's
+plane on the road, away from the camera. Of the wheels found, the best pair a wheelbase apart on a line along
+both wheels' planes is kept (a lone wheel otherwise).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from scipy.ndimage import map_coordinates
+
+from vehloc.config import params_from_config
+from vehloc.geometry.projective import ProjectiveTransform
+
+
+@dataclass(frozen=True)
+class WheelParams:
+    """Tyre darkness, rim ellipse tests, the tyre's extent and its width."""
+
+    band_fraction: float
+    tyre_to_rim_nominal: float
+    dark_percentile: float
+    dark_contrasts: tuple[float, ...]
+    min_rim_px: float
+    min_axis_ratio: float
+    min_ellipse_overlap: float
+    tyre_to_rim_range: tuple[float, float]
+    min_dark_tyre: float
+    tyre_diameter_range_mm: tuple[float, float]
+    tyre_width_mm: float
+    wheelbase_range_mm: tuple[float, float]
+    pair_tolerance_deg: float
+    min_score: float
+
+    @classmethod
+    def from_config(cls, **overrides: object) -> WheelParams:
+        """The settings of `conf/localize/wheels/default.yaml`, with `overrides`."""
+        return params_from_config(cls, "localize/wheels/default.yaml", overrides)
+
+
+@dataclass(frozen=True, eq=False)
+class Ellipse:
+    """An ellipse in px: centre, semi-axes (major, minor) and the major axis's angle from +x towards +y (deg)."""
+
+    centre_px: np.ndarray
+    semi_axes_px: np.ndarray
+    angle_deg: float
+
+    @classmethod
+    def from_rotated_rect(cls, rect: tuple) -> Ellipse:
+        """From `cv2.fitEllipse`'s ((cx, cy), (width, height), angle)."""
+        (cx, cy), (width, height), angle = rect
+        if width >= height:
+            return cls(np.array([cx, cy]), np.array([width, height]) / 2, float(angle) % 180.0)
+        return cls(np.array([cx, cy]), np.array([height, width]) / 2, (float(angle) + 90.0) % 180.0)
+
+    @property
+    def conic(self) -> np.ndarray:
+        """The symmetric 3x3 matrix C with `p^T C p = 0` on the ellipse (p homogeneous)."""
+        theta = np.radians(self.angle_deg)
+        rotation = np.array([[np.cos(theta), -np.sin(theta)], [np.sin(theta), np.cos(theta)]])
+        shape = rotation @ np.diag(1.0 / self.semi_axes_px**2) @ rotation.T
+        centre = self.centre_px
+        return np.block([[shape, -(shape @ centre)[:, None]],
+                         [-(shape @ centre)[None, :], np.array([[centre @ shape @ centre - 1.0]])]])
+
+    def scaled(self, factor: float) -> Ellipse:
+        """The ellipse scaled about its centre."""
+        return Ellipse(self.centre_px, self.semi_axes_px * factor, self.angle_deg)
+
+    def mask(self, shape: tuple[int, int]) -> np.ndarray:
+        """Pixels (bool) inside the ellipse."""
+        canvas = np.zeros(shape, np.uint8)
+        cv2.ellipse(canvas, (tuple(self.centre_px), tuple(2 * self.semi_axes_px), self.angle_deg), 1, cv2.FILLED)
+        return canvas.astype(bool)
+
+
+@dataclass(frozen=True, eq=False)
+class Wheel:
+    """One near-side wheel in frame px.
+
+    ``rim``: the fitted rim ellipse; ``tyre``: the rim ellipse scaled about its centre to reach the ground;
+    ``outer_contact_px``: where the tyre's outer face meets the road (the lowest point of the tyre ellipse on
+    its vertical diameter); ``contact_px``: the tyre's contact, half a tyre width further in; ``vertical_line_px``:
+    the image of the wheel's vertical diameter (homogeneous); ``score`` in [0, 1]: how well the rim fills its ellipse times how dark the
+    tyre is below it."""
+
+    rim: Ellipse
+    tyre: Ellipse
+    outer_contact_px: np.ndarray
+    contact_px: np.ndarray
+    vertical_line_px: np.ndarray
+    score: float
+
+
+@dataclass(frozen=True, eq=False)
+class Wheels:
+    """Up to two near-side wheels (left to right in the image), ``q_px`` Q, the middle of their contacts on the road
+    mapped back to the image (None with one wheel), and ``score``, the mean of their scores."""
+
+    wheels: tuple[Wheel, ...]
+    q_px: np.ndarray | None
+    score: float
+
+
+def meet(line_a: np.ndarray, line_b: np.ndarray) -> np.ndarray:
+    """The homogeneous point where two homogeneous lines meet."""
+    return np.cross(line_a, line_b)
+
+
+def vertical_diameter(rim: Ellipse, vertical_vp: np.ndarray, horizon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The image (homogeneous line) of a wheel's vertical diameter, and the vanishing point (homogeneous) of the
+    wheel's horizontal direction: the polar of the vertical vanishing point meets the horizon in the latter,
+    whose polar is the former."""
+    conic = rim.conic
+    horizontal_vp = meet(conic @ vertical_vp, horizon)
+    return conic @ horizontal_vp, horizontal_vp
+
+
+def ground_crossing_px(mask: np.ndarray, start_px: np.ndarray, direction: np.ndarray, reach_px: float) -> float | None:
+    """How far (px) from `start_px` along `direction` the silhouette ends: half-way between the last mask sample
+    and the first one outside it, sampling every quarter pixel; None when it does not end within `reach_px`."""
+    steps = np.arange(0.0, reach_px, 0.25)
+    points = start_px + steps[:, None] * direction
+    inside = map_coordinates(mask.astype(np.float32), [points[:, 1], points[:, 0]], order=0, mode="constant") > 0.5
+    outside = np.flatnonzero(~inside)
+    if len(outside) == 0 or outside[0] == 0:
+        return None
+    return float(steps[outside[0]] - 0.125)
+
+
+def rim_candidates(
+    roi_grey: np.ndarray, mask: np.ndarray, params: WheelParams
+) -> list[tuple[Ellipse, float, np.ndarray]]:
+    """Ellipses fitted to the outlines of the holes in the tyre-dark pixels of the silhouette's lower part, at each
+    darkness level (dark rims need a low one), with how well each hole fills its ellipse (intersection over
+    union) and that level's dark pixels; of holes found at several levels, the best-filled."""
+    rows = np.flatnonzero(mask.any(axis=1))
+    top = int(rows[0] + (1.0 - params.band_fraction) * (rows[-1] - rows[0]))
+    band = mask.copy()
+    band[:top] = False
+    darkest = np.percentile(roi_grey[band], params.dark_percentile)
+    rims: list[tuple[Ellipse, float, np.ndarray]] = []
+    for contrast in params.dark_contrasts:
+        dark = (band & (roi_grey <= darkest + contrast)).astype(np.uint8)
+        contours, hierarchy = cv2.findContours(dark, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
+        for contour, (_, _, _, parent) in zip(contours, hierarchy[0] if hierarchy is not None else []):
+            if parent < 0 or len(contour) < 5:  # holes only
+                continue
+            rim = Ellipse.from_rotated_rect(cv2.fitEllipse(contour.astype(np.float32)))
+            minor, major = rim.semi_axes_px[1], rim.semi_axes_px[0]
+            if minor < params.min_rim_px or minor < params.min_axis_ratio * major:
+                continue
+            hole = np.zeros_like(dark)
+            cv2.drawContours(hole, [contour], -1, 1, cv2.FILLED)
+            inside = rim.mask(dark.shape)
+            overlap = np.count_nonzero(inside & hole.astype(bool)) / np.count_nonzero(inside | hole.astype(bool))
+            if overlap < params.min_ellipse_overlap:
+                continue
+            same = [i for i, (other, _, _) in enumerate(rims)
+                    if np.linalg.norm(other.centre_px - rim.centre_px) < other.semi_axes_px[1] / 2]
+            if all(rims[i][1] < overlap for i in same):
+                rims = [item for i, item in enumerate(rims) if i not in same] + [(rim, overlap, dark.astype(bool))]
+    return rims
+
+
+def conic_crossings(conic: np.ndarray, point_px: np.ndarray, direction: np.ndarray) -> np.ndarray:
+    """The parameters t (real, possibly none) at which `point_px + t * direction` lies on a conic."""
+    p, d = np.append(point_px, 1.0), np.append(direction, 0.0)
+    roots = np.roots([d @ conic @ d, 2 * (d @ conic @ p), p @ conic @ p])
+    return roots[np.isreal(roots)].real
+
+
+def tyre_diameter_mm(
+    tyre: Ellipse, vertical_vp: np.ndarray, centre_px: np.ndarray, road_to_image: ProjectiveTransform
+) -> float:
+    """The length on the road (mm) of the tyre's horizontal diameter, its ends mapped as if they lay on the road:
+    the diameter itself, lengthened by the camera height / (camera height - wheel radius), a few per cent."""
+    horizontal = tyre.conic @ vertical_vp
+    direction = np.array([horizontal[1], -horizontal[0]]) / np.hypot(horizontal[0], horizontal[1])
+    ends = centre_px + conic_crossings(tyre.conic, centre_px, direction)[:, None] * direction
+    if len(ends) != 2:
+        return 0.0
+    ends_mm = road_to_image.inverse(ends)
+    return float(np.linalg.norm(ends_mm[1] - ends_mm[0])) if np.all(np.isfinite(ends_mm)) else 0.0
+
+
+def measure_wheel(
+    rim: Ellipse, overlap: float, dark: np.ndarray, mask: np.ndarray, offset_px: np.ndarray, vertical_vp: np.ndarray,
+    horizon: np.ndarray, road_to_image: ProjectiveTransform, params: WheelParams,
+) -> tuple[float, Ellipse, np.ndarray, float, np.ndarray, np.ndarray, bool] | None:
+    """A rim (frame px) measured as a wheel: its score, the rim, the outer contact (frame px), the tyre's scale
+    from the rim, the vertical diameter, the horizontal vanishing point (homogeneous) and whether the tyre is
+    the nominal one (the silhouette not ending below it); None when the ground is not a tyre's depth below the
+    rim, the tyre between them is not dark, or the tyre is not wheel-sized."""
+    line, horizontal_vp = vertical_diameter(rim, vertical_vp, horizon)
+    line = line / np.hypot(line[0], line[1])
+    direction = np.array([line[1], -line[0]]) * (1.0 if -line[0] >= 0 else -1.0)  # down the image
+    centre = rim.centre_px - (line[:2] @ rim.centre_px + line[2]) * line[:2]  # on the vertical diameter
+    rim_bottom_px = float(conic_crossings(rim.conic, centre, direction).max(initial=0.0))
+    if rim_bottom_px <= 0:
+        return None
+    low, high = params.tyre_to_rim_range
+    measured = ground_crossing_px(mask, centre - offset_px, direction, high * rim_bottom_px + 2.0)
+    # where the silhouette ends a tyre below the rim, the ground is there; where it carries on below (a shadow
+    # under the car), a tyre of the nominal size is tried too
+    nominal = params.tyre_to_rim_nominal * rim_bottom_px
+    reaches = [measured] if measured is not None and low * rim_bottom_px <= measured <= high * rim_bottom_px else []
+    reaches += [nominal] if measured is None or measured > nominal else []
+    for reach in reaches:
+        tyre = centre - offset_px + np.linspace(rim_bottom_px, reach, 8)[1:-1, None] * direction
+        tyre_dark = float(map_coordinates(dark.astype(np.float32), [tyre[:, 1], tyre[:, 0]], order=0).mean())
+        score = overlap * tyre_dark
+        diameter_mm = tyre_diameter_mm(rim.scaled(reach / rim_bottom_px), vertical_vp, centre, road_to_image)
+        low_mm, high_mm = params.tyre_diameter_range_mm
+        if tyre_dark >= params.min_dark_tyre and score >= params.min_score and low_mm <= diameter_mm <= high_mm:
+            return score, rim, centre + reach * direction, reach / rim_bottom_px, line, horizontal_vp, reach == nominal
+    return None
+
+
+def wheel_pair(
+    outer_mm: np.ndarray, plane_directions_mm: np.ndarray, scores: np.ndarray, params: WheelParams
+) -> list[int]:
+    """The indices of the best-scoring pair of wheels of one side (a wheelbase apart on the road, on a line along
+    both wheels' planes within `pair_tolerance_deg`), left as found; the best wheel alone when no pair is."""
+    def angle_deg(a: np.ndarray, b: np.ndarray) -> float:
+        return float(np.degrees(np.arccos(min(1.0, abs(a @ b) / (np.linalg.norm(a) * np.linalg.norm(b))))))
+
+    low, high = params.wheelbase_range_mm
+    best: tuple[float, list[int]] = (float(scores.max()), [int(np.argmax(scores))])
+    for i in range(len(scores)):
+        for j in range(i + 1, len(scores)):
+            between = outer_mm[j] - outer_mm[i]
+            if (low <= np.linalg.norm(between) <= high
+                    and max(angle_deg(between, plane_directions_mm[i]), angle_deg(between, plane_directions_mm[j]))
+                    <= params.pair_tolerance_deg and scores[i] + scores[j] > best[0]):
+                best = (float(scores[i] + scores[j]), [i, j])
+    return best[1]
+
+
+def detect_wheels(
+    roi_bgr: np.ndarray,
+    mask: np.ndarray,
+    offset_px: np.ndarray,
+    road_to_image: ProjectiveTransform,
+    camera_foot_mm: np.ndarray,
+    params: WheelParams,
+) -> Wheels | None:
+    """The near-side wheels of the vehicle in an ROI, or None when no wheel scores `min_score`.
+
+    `roi_bgr`: the ROI crop (uint8 BGR); `mask`: its foreground (bool); `offset_px`: the ROI's top-left in the
+    frame (x, y); `road_to_image`: road mm -> frame px; `camera_foot_mm`: the road point below the camera
+    (`PinholeCamera.centre_mm[:2]`), whose image is the vertical vanishing point."""
+    mask = np.asarray(mask, dtype=bool)
+    if not mask.any():
+        return None
+    offset = np.asarray(offset_px, dtype=float)
+    foot = np.asarray(camera_foot_mm, dtype=float)
+    vertical_vp = road_to_image.homogeneous(foot)[0]
+    horizon = road_to_image.map_lines(np.array([0.0, 0.0, 1.0]))[0]
+    grey = cv2.cvtColor(roi_bgr, cv2.COLOR_BGR2GRAY).astype(np.float32)
+    found = [measured for roi_rim, overlap, dark in rim_candidates(grey, mask, params)
+             if (measured := measure_wheel(Ellipse(roi_rim.centre_px + offset, roi_rim.semi_axes_px, roi_rim.angle_deg),
+                                           overlap, dark, mask, offset, vertical_vp, horizon, road_to_image, params))]
+    if not found:
+        return None
+    outer_mm = road_to_image.inverse(np.array([item[2] for item in found]))
+    planes_mm = np.array([np.linalg.solve(road_to_image.matrix, item[5])[:2] for item in found])
+    keep = wheel_pair(outer_mm, planes_mm, np.array([item[0] for item in found]), params)
+    keep = sorted(keep, key=lambda i: found[i][2][0])
+    if len(keep) == 1 and found[keep[0]][6]:
+        return None  # a nominal tyre alone is too weak a sign of a wheel; with its pair it stands
+    found, outer_mm, planes_mm = [found[i] for i in keep], outer_mm[keep], planes_mm[keep]
+    wheels = []
+    for (score, rim, outer_px, factor, line, _, _), outer_road, plane_mm in zip(found, outer_mm, planes_mm):
+        # the wheels' plane on the road: through both outer contacts, or towards its vanishing point
+        along = outer_mm[-1] - outer_mm[0] if len(found) == 2 else plane_mm
+        inward = np.array([-along[1], along[0]]) / np.linalg.norm(along)
+        inward = inward if inward @ (outer_road - foot) > 0 else -inward
+        contact = road_to_image(outer_road + params.tyre_width_mm / 2 * inward)[0]
+        wheels.append(Wheel(rim, rim.scaled(factor), outer_px, contact, line, score))
+    q_px = None
+    if len(wheels) == 2:
+        contacts_mm = road_to_image.inverse(np.array([wheel.contact_px for wheel in wheels]))
+        q_px = road_to_image(contacts_mm.mean(axis=0, keepdims=True))[0]
+    return Wheels(tuple(wheels), q_px, float(np.mean([wheel.score for wheel in wheels])))

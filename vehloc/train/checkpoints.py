@@ -1,0 +1,106 @@
+"""Reading classifier checkpoints (torch only, no Lightning): always with `weights_only=True`, so that a file
+from elsewhere can never run code, with one clear line when a file is not a vehloc checkpoint; the
+checkpoint's preprocessing; and the check that a checkpoint's classes are those of a data set."""
+
+from __future__ import annotations
+
+import pickle
+import zipfile
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import torch
+
+from vehloc.data.preprocess import Preprocessing
+from vehloc.errors import VehlocError
+
+PREPROCESSING_KEY = "preprocessing"
+CLASS_TABLE_KEYS = ("class_model_ids", "class_makes", "class_models", "class_dims_mm")
+
+
+class CheckpointError(VehlocError):
+    """A checkpoint is missing, unreadable, not a vehloc classifier's, or of other classes than the data."""
+
+
+def load_failure(exc: BaseException) -> str:
+    """Why torch.load failed, in a few words (never PyTorch's advice to load the file with weights_only=False,
+    which would let an untrusted file run code)."""
+    text = str(exc)
+    if "Unsupported global" in text or "GLOBAL" in text:
+        return ("it holds Python objects besides tensors and plain values; vehloc loads checkpoints with "
+                "weights_only=True and does not run code from a file")
+    if isinstance(exc, EOFError) or "Ran out of input" in text:
+        return "the file is empty or cut short"
+    if isinstance(exc, zipfile.BadZipFile) or "zip archive" in text or "central directory" in text:
+        return "the file is cut short or corrupt (a broken zip archive)"
+    if isinstance(exc, (pickle.UnpicklingError, RuntimeError, ValueError)) or "Weights only load failed" in text:
+        return "the file is corrupt or not a PyTorch checkpoint"
+    return f"{type(exc).__name__}"
+
+
+def read_checkpoint(path: str | Path) -> dict[str, Any]:
+    """A Lightning checkpoint of LitVehicleClassifier, loaded with `weights_only=True`; CheckpointError naming
+    the file when it is missing, not loadable or not a vehloc classifier's."""
+    path = Path(path)
+    if not path.is_file():
+        raise CheckpointError(f"ckpt_path {path}: no such checkpoint file" + (" (it is a folder)" if path.is_dir() else ""))
+    try:
+        checkpoint = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as exc:  # noqa: BLE001 - any unreadable file is a user error here
+        raise CheckpointError(f"{path}: not a readable checkpoint: {load_failure(exc)}") from None
+    hparams = checkpoint.get("hyper_parameters") if isinstance(checkpoint, dict) else None
+    if not isinstance(hparams, dict) or "state_dict" not in checkpoint or "class_model_ids" not in hparams:
+        raise CheckpointError(f"{path}: not a vehloc classifier checkpoint (no state_dict and class table)")
+    lengths = {key: len(hparams.get(key) or ()) for key in CLASS_TABLE_KEYS}
+    if len(set(lengths.values())) != 1 or not lengths["class_model_ids"]:
+        raise CheckpointError(f"{path}: malformed class table ({', '.join(f'{k}: {n}' for k, n in lengths.items())})")
+    return checkpoint
+
+
+def preprocessing_of(checkpoint: dict[str, Any], path: str | Path) -> Preprocessing:
+    """The preprocessing a checkpoint's classifier was trained with."""
+    if PREPROCESSING_KEY not in checkpoint:
+        raise CheckpointError(f"{path}: the checkpoint has no preprocessing description (written by an older vehloc)")
+    try:
+        return Preprocessing.from_dict(checkpoint[PREPROCESSING_KEY])
+    except (TypeError, ValueError) as err:
+        raise CheckpointError(f"{path}: bad preprocessing description ({err})") from None
+
+
+def check_classes(
+    checkpoint: dict[str, Any], class_model_ids: Sequence[int], path: str | Path,
+    class_makes: Sequence[str] | None = None, class_models: Sequence[str] | None = None, data_name: str = "the data set",
+) -> None:
+    """CheckpointError unless the checkpoint was trained on exactly these classes: the same model ids in the same
+    order and, when given, the same make and model names; the message says how they differ."""
+    hp = checkpoint["hyper_parameters"]
+    trained = [int(m) for m in hp["class_model_ids"]]
+    data = [int(m) for m in class_model_ids]
+    if trained != data:
+        detail = ""
+        only_checkpoint = sorted(set(trained) - set(data))
+        only_data = sorted(set(data) - set(trained))
+        if only_checkpoint or only_data:
+            detail = (f"; only in the checkpoint: {_abbrev(only_checkpoint) or 'none'}, "
+                      f"only in {data_name}: {_abbrev(only_data) or 'none'}")
+        raise CheckpointError(
+            f"{path}: checkpoint has {len(trained)} classes (model ids {_abbrev(trained)}), "
+            f"{data_name} has {len(data)} (model ids {_abbrev(data)}){detail}"
+        )
+    if class_makes is None or class_models is None:
+        return
+    names = list(zip(hp["class_makes"], hp["class_models"]))
+    differing = [(m, a, b) for m, a, b in zip(trained, names, zip(class_makes, class_models)) if tuple(a) != tuple(b)]
+    if differing:
+        model_id, (make_a, model_a), (make_b, model_b) = differing[0]
+        raise CheckpointError(
+            f"{path}: the checkpoint's classes are not those of {data_name}: the model ids match but "
+            f"{len(differing)} of {len(trained)} names differ, e.g. model {model_id} is '{make_a} {model_a}' in the "
+            f"checkpoint and '{make_b} {model_b}' in {data_name} (another data set numbered the same way?)"
+        )
+
+
+def _abbrev(ids: Sequence[int], shown: int = 6) -> str:
+    head = ", ".join(map(str, ids[:shown]))
+    return head + (f", ... ({len(ids)} in all)" if len(ids) > shown else "")
