@@ -46,29 +46,32 @@ def classifier_batch1_ms(classifier: VehicleClassifier, frame_bgr: np.ndarray, b
 
 
 def run_mode(video: Path, classifier: VehicleClassifier, calibration_path: Path, every_frame: bool,
-             max_frames: int | None) -> tuple[StageClock, int, int, Box | None, np.ndarray | None]:
-    """Run the pipeline over the video; the clock, the frame count, the count of frames with one vehicle in
-    view, and a box and frame of a vehicle (for the classifier's own timing)."""
+             max_frames: int | None) -> tuple[StageClock, int, list[float], Box | None, np.ndarray | None]:
+    """Run the pipeline over the video; the clock, the frame count, the pipeline's seconds at each frame with
+    one vehicle in view, and a box and frame of a vehicle (for the classifier's own timing)."""
     clock = StageClock()
     localizer = Localizer(classifier, read_calibration(calibration_path), PipelineParams.from_config(every_frame=every_frame),
                           clock=clock)
     frames = iter_frames(video)
-    frame_count, one_in_view, sample = 0, 0, (None, None)
+    frame_count, one_in_view_s, sample = 0, [], (None, None)
     while max_frames is None or frame_count < max_frames:
         with clock.stage("decode"):
             frame = next(frames, None)
         if frame is None:
             break
+        start = time.perf_counter()
         localizer.process(frame_count, frame)
+        seconds = time.perf_counter() - start
         live = [t for t in localizer.tracker.tracks if t.frames[-1] == frame_count]
         if len(live) == 1:
-            one_in_view += 1
+            one_in_view_s.append(seconds)
             sample = (live[0].box, frame)
         frame_count += 1
-    return clock, frame_count, one_in_view, *sample
+    return clock, frame_count, one_in_view_s, *sample
 
 
-def stage_rows(clock: StageClock, frame_count: int, batch1_ms: float, mode: str) -> list[dict[str, object]]:
+def stage_rows(clock: StageClock, frame_count: int, one_in_view_s: list[float], batch1_ms: float,
+               mode: str) -> list[dict[str, object]]:
     rows = []
     for stage in STAGES:
         rows.append({"mode": mode, "stage": stage, "calls": clock.calls(stage), "total_ms": clock.total_ms(stage),
@@ -77,6 +80,11 @@ def stage_rows(clock: StageClock, frame_count: int, batch1_ms: float, mode: str)
     rows.append({"mode": mode, "stage": "pipeline (without decode)", "calls": frame_count,
                  "total_ms": pipeline_ms * frame_count, "ms_per_frame": pipeline_ms,
                  "x_classifier_batch1": pipeline_ms / batch1_ms})
+    for statistic, value in (("mean", np.mean), ("median", np.median)):
+        in_view_ms = 1000.0 * float(value(one_in_view_s))
+        rows.append({"mode": mode, "stage": f"pipeline, frames with one vehicle in view ({statistic})",
+                     "calls": len(one_in_view_s), "total_ms": 1000.0 * float(np.sum(one_in_view_s)),
+                     "ms_per_frame": in_view_ms, "x_classifier_batch1": in_view_ms / batch1_ms})
     whole_ms = pipeline_ms + clock.total_ms("decode") / frame_count
     rows.append({"mode": mode, "stage": "whole (with decode)", "calls": frame_count, "total_ms": whole_ms * frame_count,
                  "ms_per_frame": whole_ms, "x_classifier_batch1": whole_ms / batch1_ms})
@@ -97,14 +105,14 @@ def main() -> None:
     rows, batch1_ms = [], None
     for mode, every_frame in (("when stopped", False), ("every frame", True)):
         print(f"running the pipeline ({mode}) over {args.video}", flush=True)
-        clock, frames, one_in_view, box, frame = run_mode(args.video, classifier, args.calibration, every_frame,
+        clock, frames, one_in_view_s, box, frame = run_mode(args.video, classifier, args.calibration, every_frame,
                                                           args.max_frames)
+        if box is None:
+            raise SystemExit(f"{args.video}: no frame with one vehicle in view")
         if batch1_ms is None:
-            if box is None:
-                raise SystemExit(f"{args.video}: no frame with one vehicle in view")
             batch1_ms = classifier_batch1_ms(classifier, frame, box, args.repeats)
-        rows += stage_rows(clock, frames, batch1_ms, mode)
-        print(f"{frames} frames, {one_in_view} with one vehicle in view", flush=True)
+        rows += stage_rows(clock, frames, one_in_view_s, batch1_ms, mode)
+        print(f"{frames} frames, {len(one_in_view_s)} with one vehicle in view", flush=True)
 
     table = pd.DataFrame(rows)
     cpu = cpu_info()
@@ -112,7 +120,8 @@ def main() -> None:
              f"Python {platform.python_version()}); classifier batch-1: {batch1_ms:.1f} ms")
     args.out.mkdir(parents=True, exist_ok=True)
     write_text(args.out / "stages.csv", table.to_csv(index=False, float_format="%.2f"))
-    write_text(args.out / "stages.md", f"# {title}\n\n{markdown_table(table.astype(object).where(table.notna(), ""))}\n")
+    shown = table.astype(object).where(table.notna(), "")
+    write_text(args.out / "stages.md", f"# {title}\n\n{markdown_table(shown)}\n")
     print(title)
     print(table.to_string(index=False, float_format=lambda v: f"{v:.2f}"))
 

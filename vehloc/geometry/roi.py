@@ -73,7 +73,7 @@ def local_std(image: np.ndarray, window_px: int) -> np.ndarray:
 
 
 def remove_shadows(
-    mog2_mask: np.ndarray, frame_bgr: np.ndarray, background_bgr: np.ndarray, params: RoiParams
+    mog2_mask: np.ndarray, frame_bgr: np.ndarray, background_bgr: np.ndarray | None, params: RoiParams
 ) -> np.ndarray:
     """Foreground without cast shadows.
 
@@ -81,15 +81,21 @@ def remove_shadows(
     change of colour. On grey cars over grey roads that flags car body too, so where the background
     has texture a flagged pixel is taken as shadow only if that texture shows through (high local
     correlation with the background); elsewhere it stays foreground. Where the background has no
-    texture to check, MOG2's label stands."""
+    texture to check, MOG2's label stands. The texture is compared only around the flagged pixels (the
+    background image may be None when none is flagged)."""
     foreground = mog2_mask == MOG2_FOREGROUND_VALUE
     candidates = mog2_mask == MOG2_SHADOW_VALUE
     if candidates.any():
-        grey = cv2.cvtColor(frame_bgr, cv2.COLOR_BGR2GRAY)
-        background_grey = cv2.cvtColor(background_bgr, cv2.COLOR_BGR2GRAY)
+        x, y, w, h = cv2.boundingRect(candidates.astype(np.uint8))
+        reach = params.shadow_texture_window_px
+        around = Box(max(x - reach, 0), max(y - reach, 0), min(x + w + reach, mog2_mask.shape[1]),
+                     min(y + h + reach, mog2_mask.shape[0]))
+        grey = cv2.cvtColor(around.crop(frame_bgr), cv2.COLOR_BGR2GRAY)
+        background_grey = cv2.cvtColor(around.crop(background_bgr), cv2.COLOR_BGR2GRAY)
         correlation, texture = local_correlation(grey, background_grey, params.shadow_texture_window_px)
         checkable = texture >= params.shadow_min_texture
-        foreground |= candidates & checkable & (correlation < params.shadow_min_correlation)
+        window = (slice(around.y0, around.y1), slice(around.x0, around.x1))
+        foreground[window] |= candidates[window] & checkable & (correlation < params.shadow_min_correlation)
     return foreground.astype(np.uint8) * 255
 
 
@@ -203,10 +209,8 @@ class VehicleRoiExtractor:
         rate = -1.0 if not self.ready else self.params.learning_rate_after_history
         raw = self.subtractor.apply(small, learningRate=rate)
         self.frames_seen += 1
-        background = self.subtractor.getBackgroundImage()
+        background = self.subtractor.getBackgroundImage() if (raw == MOG2_SHADOW_VALUE).any() else None
         self.last_mask = clean_mask(remove_shadows(raw, small, background, self.params), self.params)
-        if not self.ready:
-            return []
         self.last_frame = frame_bgr
         if (self.frames_seen - 1) % self.params.background_every_frames == 0:
             self._update_background(frame_bgr)
