@@ -1,6 +1,6 @@
 """The key-point geometry of the paper's placement against exact ground truth from a pinhole camera: a
 horizontal line at a height mapped to the road and lowered back, O below the plate, the bumper's height from
-a shape, and the length axis the wheels pick."""
+a shape."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 
 from vehloc.data.shapes import VehicleShape
 from vehloc.geometry.camera import PinholeCamera
-from vehloc.geometry.keypoints import below_plate_mm, end_bottom_height_mm, length_axis_by_wheels, lowered_line_mm
+from vehloc.geometry.keypoints import below_plate_mm, end_bottom_height_mm, lowered_line_mm
 
 
 @pytest.fixture(scope="module")
@@ -50,10 +50,3 @@ def test_the_end_bottom_height_is_the_lowest_point_near_that_end() -> None:
     assert end_bottom_height_mm(shape, "front") == 300.0
     assert end_bottom_height_mm(shape, "rear") == 250.0
     assert end_bottom_height_mm(shape, None) == 275.0
-
-
-@pytest.mark.parametrize(("footprint_deg", "expected_deg"), [(10.0, 10.0), (100.0, 190.0), (-75.0, 15.0)])
-def test_the_wheels_pick_the_length_axis(footprint_deg: float, expected_deg: float) -> None:
-    """Two contacts along 12 deg: the footprint's axis stays when within 45 deg of theirs, else turns 90."""
-    contacts = np.array([[0.0, 0.0], [2800 * np.cos(np.radians(12)), 2800 * np.sin(np.radians(12))]])
-    assert length_axis_by_wheels(footprint_deg, contacts) == pytest.approx(expected_deg)

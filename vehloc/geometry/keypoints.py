@@ -5,8 +5,9 @@ vertical through P (towards the camera's vertical vanishing point) meets the fro
 the side line's direction, into the vehicle; the box's visible end is stuck to O_W with its long
 centreline along O_W C_W. The wheel branch, when no plate is found: the two near tyres' contacts on the side
 line l_S (the outer faces' contacts with the road, where l_S touches the tyres; taken from the tyres
-themselves, as a shadow beside the car can push the silhouette's l_S outwards), Q their middle on the road, C along the front line's direction, into the vehicle; the
-box's near side is stuck to Q_W between the axles with its short centreline along Q_W C_W.
+themselves, as a shadow beside the car can push the silhouette's l_S outwards; l_S's direction is the one
+from contact to contact), Q their middle on the road, C perpendicular to l_S, into the vehicle; the box's
+near side is stuck to Q_W between the axles with its short centreline along Q_W C_W.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from vehloc.data.shapes import VehicleShape
 from vehloc.data.specs import VehicleSpec
 from vehloc.errors import VehlocError
 from vehloc.geometry.footprint import FootprintLines, FootprintParams, detect_footprint
-from vehloc.geometry.placement import VehicleBox, axis_difference_deg, direction_of, heading_of, place_on_end, place_on_side
+from vehloc.geometry.placement import VehicleBox, direction_of, heading_of, place_on_end, place_on_side
 from vehloc.geometry.plate import PlateParams, detect_plate
 from vehloc.geometry.roi import Silhouette
 from vehloc.geometry.site_calibration import CameraCalibration
@@ -138,16 +139,9 @@ def paper_placement(
     contacts_px = np.array([w.outer_contact_px for w in wheels.wheels])
     contacts_mm = road_to_image.inverse.map_visible(contacts_px, "tyre contact")
     q_mm = contacts_mm.mean(axis=0)
-    into = inward(length_axis_by_wheels(lines.length_heading_deg, contacts_mm) + 90.0, q_mm, foot)
+    into = inward(heading_of(contacts_mm[1] - contacts_mm[0]) + 90.0, q_mm, foot)
     box = place_on_side(q_mm, into, length_mm, width_mm)
     return Placement(box, "wheels", q_mm, q_mm + C_DISTANCE_MM * into, float(np.linalg.norm(contacts_mm[1] - contacts_mm[0])))
-
-
-def length_axis_by_wheels(length_heading_deg: float, contacts_mm: np.ndarray) -> float:
-    """The footprint's length axis, or its perpendicular when that is the one the two wheels' contacts run
-    along (the wheels of one side lie along the length; the lines alone can mistake an end for a side)."""
-    wheels_deg = heading_of(contacts_mm[1] - contacts_mm[0])
-    return length_heading_deg if abs(axis_difference_deg(wheels_deg, length_heading_deg)) <= 45.0 else length_heading_deg + 90.0
 
 
 def _footprint_lines(roi_bgr: np.ndarray, mask: np.ndarray, offset: np.ndarray, calibration: CameraCalibration,
