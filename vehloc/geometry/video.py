@@ -42,8 +42,10 @@ class VideoInfo:
     fps: float
 
 
-def video_info(path: Path | str) -> VideoInfo:
-    """The size, length and rate of a video; MediaError if it does not exist or OpenCV cannot open it."""
+@contextmanager
+def _opened(path: Path | str) -> Iterator[tuple[cv2.VideoCapture, np.ndarray]]:
+    """The video opened with the FFmpeg backend and its first frame; MediaError if it does not exist or yields
+    no frame."""
     path = Path(path)
     if not path.is_file():
         raise MediaError(f"{path}: video does not exist")
@@ -53,28 +55,25 @@ def video_info(path: Path | str) -> VideoInfo:
         ok, frame = capture.read()
         if not ok:
             raise MediaError(f"{path}: not a readable video (OpenCV decoded no frame)")
-        return VideoInfo(frame.shape[1], frame.shape[0], int(capture.get(cv2.CAP_PROP_FRAME_COUNT)),
-                         float(capture.get(cv2.CAP_PROP_FPS)))
+        yield capture, frame
     finally:
         capture.release()
+
+
+def video_info(path: Path | str) -> VideoInfo:
+    """The size, length and rate of a video; MediaError if it does not exist or OpenCV cannot open it."""
+    with _opened(path) as (capture, frame):
+        return VideoInfo(frame.shape[1], frame.shape[0], int(capture.get(cv2.CAP_PROP_FRAME_COUNT)),
+                         float(capture.get(cv2.CAP_PROP_FPS)))
 
 
 def iter_frames(path: Path | str) -> Iterator[np.ndarray]:
     """Yield the BGR frames of a video (FFmpeg backend); MediaError if it does not exist or yields no frame."""
-    path = Path(path)
-    if not path.is_file():
-        raise MediaError(f"{path}: video does not exist")
-    with _opencv_errors_only():
-        capture = cv2.VideoCapture(str(path), cv2.CAP_FFMPEG)
-    try:
-        ok, frame = capture.read()
-        if not ok:
-            raise MediaError(f"{path}: not a readable video (OpenCV decoded no frame)")
+    with _opened(path) as (capture, frame):
+        ok = True
         while ok:
             yield frame
             ok, frame = capture.read()
-    finally:
-        capture.release()
 
 
 def read_still(path: Path | str, frame_index: int = 0) -> np.ndarray:
