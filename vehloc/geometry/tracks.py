@@ -33,7 +33,7 @@ class TrackVotes:
             self.crops.append((around.crop(frame_bgr).copy(), inside))
             if len(self.crops) > self.capacity:
                 self.crops = self.crops[::2]
-                self.crop_probabilities = self.crop_probabilities[::2][: len(self.crops)]
+                self.crop_probabilities = self.crop_probabilities[::2]
                 self.stride *= 2
         self.seen += 1
 
