@@ -17,14 +17,7 @@ $(INSTALLED): pyproject.toml
 	touch $(INSTALLED)
 
 demo: $(INSTALLED)
-	$(BIN)/vehloc-data make-demo $(DEMO_DIR)/compcars --per-model 240 --seed 0
-	$(BIN)/vehloc-data check $(DEMO_DIR)/compcars
-	$(BIN)/vehloc-data contact-sheet $(DEMO_DIR)/compcars $(DEMO_DIR)/contact_sheet.png
-	$(BIN)/vehloc-train experiment=demo data.root=$(DEMO_DIR)/compcars hydra.run.dir=$(DEMO_DIR)/train
-	$(BIN)/vehloc-export ckpt_path=$(DEMO_DIR)/train/checkpoints/last.ckpt data_root=$(DEMO_DIR)/compcars \
-		output=$(DEMO_DIR)/model.onnx hydra.run.dir=$(DEMO_DIR)/export
-	$(BIN)/vehloc-predict --model $(DEMO_DIR)/model.onnx --top-k 3 --compcars-labels \
-		$$(head -n 2 $(DEMO_DIR)/compcars/train_test_split/classification/test.txt | sed 's|^|$(DEMO_DIR)/compcars/image/|')
+	$(BIN)/vehloc-demo out=$(DEMO_DIR)
 
 test: $(INSTALLED)
 	$(BIN)/python -m pytest

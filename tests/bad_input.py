@@ -27,6 +27,7 @@ CLI_MODULES = {
     "vehloc-train": "vehloc.train.train",
     "vehloc-eval": "vehloc.train.evaluate",
     "vehloc-localize": "vehloc.geometry.localize_cli",
+    "vehloc-demo": "vehloc.demo.cli",
 }
 
 

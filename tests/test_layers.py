@@ -1,5 +1,5 @@
-"""The layer contract: data <- train <- infer <- geometry, synth over data and geometry; deployment (data,
-infer, geometry, synth) without torch. Checked on the imports written in the source (every `import`, at
+"""The layer contract: data <- train <- infer <- geometry, synth over data and geometry, the demo application
+over them all (training only as a subprocess); deployment (data, infer, geometry, synth) without torch. Checked on the imports written in the source (every `import`, at
 module level or inside functions) and on what importing the deployment packages really loads."""
 
 from __future__ import annotations
@@ -20,11 +20,12 @@ ALLOWED = {
     "infer": UTILITIES | {"data", "infer"},
     "geometry": UTILITIES | {"data", "infer", "geometry"},
     "synth": UTILITIES | {"data", "geometry", "synth"},
+    "demo": UTILITIES | {"data", "train", "infer", "geometry", "synth", "demo"},
 }
 # the one bridge from training to deployment: export turns a checkpoint into an ONNX file
 EXCEPTIONS = {"vehloc.infer.export": {"train"}, "vehloc.infer.export_cli": {"train"}}
 TORCH = {"torch", "torchvision", "lightning", "pytorch_lightning", "torchmetrics"}
-TORCH_FREE_LAYERS = {"utilities", "data", "infer", "geometry", "synth"}
+TORCH_FREE_LAYERS = {"utilities", "data", "infer", "geometry", "synth", "demo"}
 
 
 def module_name(path: Path, root: Path) -> str:

@@ -1,6 +1,6 @@
 """The one preprocessing of the classifier, from an image file and a vehicle box to the network's input:
-the box enlarged on each side (the paper's 10 %), the ROI resized to a square, centre-cropped, RGB
-scaled to [0, 1]. The network normalises with `mean` and `std` itself (inside the Lightning module and
+the box enlarged on each side (the paper's 10 %), the ROI padded to a square with grey (`keep_aspect`, so a
+side view keeps its length-to-height cue) or squashed to one, resized, centre-cropped, RGB scaled to [0, 1]. The network normalises with `mean` and `std` itself (inside the Lightning module and
 the ONNX graph). Training augments the same ROI its own way; evaluation, the export's parity check and
 the onnxruntime classifier all run `Preprocessing.to_input`, NumPy and OpenCV only.
 """
@@ -23,6 +23,8 @@ from vehloc.errors import VehlocError
 
 COLOUR_ORDER = "RGB"
 INPUT_RANGE = (0.0, 1.0)
+PAD_GREY = 128
+"""The grey of the bars that pad a ROI to a square when its aspect is kept."""
 
 
 class ImageInputError(VehlocError):
@@ -109,6 +111,17 @@ def enlarged_roi(image: np.ndarray, box: Box, enlarge_fraction: float) -> np.nda
     return box.enlarged(enlarge_fraction, width_px, height_px).crop(image)
 
 
+def padded_square(roi_bgr: np.ndarray) -> np.ndarray:
+    """The ROI centred on a square of `PAD_GREY` as wide as its longer side (returned as is when square)."""
+    height_px, width_px = roi_bgr.shape[:2]
+    side_px = max(height_px, width_px)
+    if height_px == width_px:
+        return roi_bgr
+    top, left = (side_px - height_px) // 2, (side_px - width_px) // 2
+    return cv2.copyMakeBorder(roi_bgr, top, side_px - height_px - top, left, side_px - width_px - left,
+                              cv2.BORDER_CONSTANT, value=(PAD_GREY, PAD_GREY, PAD_GREY))
+
+
 @dataclass(frozen=True)
 class Preprocessing:
     """How a vehicle ROI becomes the classifier's input (stored in checkpoints and ONNX metadata)."""
@@ -118,6 +131,7 @@ class Preprocessing:
     roi_enlarge_fraction: float
     mean: tuple[float, float, float]
     std: tuple[float, float, float]
+    keep_aspect: bool = False
 
     def __post_init__(self) -> None:
         if not (isinstance(self.input_size_px, int) and self.input_size_px >= 8):
@@ -126,6 +140,8 @@ class Preprocessing:
             raise ValueError(f"resize_px must be an integer >= input_size_px ({self.input_size_px}), got {self.resize_px!r}")
         if not 0.0 <= self.roi_enlarge_fraction <= 1.0:
             raise ValueError(f"roi_enlarge_fraction must lie in [0, 1], got {self.roi_enlarge_fraction!r}")
+        if not isinstance(self.keep_aspect, bool):
+            raise ValueError(f"keep_aspect must be true or false, got {self.keep_aspect!r}")
         if len(self.mean) != 3 or len(self.std) != 3 or min(self.std) <= 0:
             raise ValueError(f"mean and std need 3 values each, std positive; got {self.mean!r}, {self.std!r}")
         object.__setattr__(self, "mean", tuple(float(v) for v in self.mean))
@@ -144,8 +160,10 @@ class Preprocessing:
         return enlarged_roi(image_bgr, box, self.roi_enlarge_fraction)
 
     def to_input(self, roi_bgr: np.ndarray) -> np.ndarray:
-        """Resize to a `resize_px` square (area averaging when shrinking, bilinear when enlarging), centre-crop
-        `input_size_px`, RGB float32 in [0, 1], (3, S, S)."""
+        """Pad to a square (`keep_aspect`), resize to a `resize_px` square (area averaging when shrinking,
+        bilinear when enlarging), centre-crop `input_size_px`, RGB float32 in [0, 1], (3, S, S)."""
+        if self.keep_aspect:
+            roi_bgr = padded_square(roi_bgr)
         height_px, width_px = roi_bgr.shape[:2]
         shrinking = self.resize_px < min(height_px, width_px)
         square = cv2.resize(roi_bgr, (self.resize_px, self.resize_px),
@@ -160,10 +178,11 @@ class Preprocessing:
 
     @classmethod
     def from_dict(cls, values: dict[str, object]) -> Preprocessing:
-        """From `as_dict`'s mapping; ValueError naming a missing or bad entry."""
+        """From `as_dict`'s mapping; ValueError naming a missing or bad entry (`keep_aspect` may be missing:
+        files written before it squashed the ROI)."""
         fields = ("input_size_px", "resize_px", "roi_enlarge_fraction", "mean", "std")
         missing = [name for name in fields if name not in values]
         if missing:
             raise ValueError(f"preprocessing lacks {', '.join(missing)}")
         return cls(int(values["input_size_px"]), int(values["resize_px"]), float(values["roi_enlarge_fraction"]),
-                   tuple(values["mean"]), tuple(values["std"]))
+                   tuple(values["mean"]), tuple(values["std"]), values.get("keep_aspect", False))

@@ -53,6 +53,7 @@ class CompCarsDataModule(L.LightningDataModule):
         input_size_px: int = 224,
         eval_resize_px: int | None = None,
         roi_enlarge_fraction: float = 0.10,
+        keep_aspect: bool = False,
         augment: dict[str, Any] | None = None,
         batch_size: int = 32,
         eval_batch_size: int | None = None,
@@ -69,7 +70,8 @@ class CompCarsDataModule(L.LightningDataModule):
         self.augment = dict(augment or {})
         # the network's normalisation is unknown here and not part of `to_input`: identity until given
         self.eval_preprocessing = Preprocessing(
-            input_size_px, eval_resize_px or input_size_px, roi_enlarge_fraction, (0.0, 0.0, 0.0), (1.0, 1.0, 1.0)
+            input_size_px, eval_resize_px or input_size_px, roi_enlarge_fraction, (0.0, 0.0, 0.0), (1.0, 1.0, 1.0),
+            keep_aspect,
         )
         self.train_set: CompCarsCrops | None = None
         self.val_set: CompCarsCrops | None = None
@@ -100,7 +102,7 @@ class CompCarsDataModule(L.LightningDataModule):
     def _crops(self, samples: Sequence[CompCarsSample], labels: Sequence[int], train: bool) -> CompCarsCrops:
         if train:
             hp = self.hparams
-            return CompCarsCrops(samples, labels, TrainTransform(hp.input_size_px, **self.augment), hp.roi_enlarge_fraction)
+            return CompCarsCrops(samples, labels, TrainTransform(hp.input_size_px, hp.keep_aspect, **self.augment), hp.roi_enlarge_fraction)
         preprocessing = self.eval_preprocessing
         return CompCarsCrops(samples, labels, EvalTransform(preprocessing), preprocessing.roi_enlarge_fraction)
 

@@ -50,6 +50,7 @@ class LitVehicleClassifier(L.LightningModule):
         input_size_px: int = 224,
         eval_resize_px: int | None = None,
         roi_enlarge_fraction: float = 0.10,
+        keep_aspect: bool = False,
         class_wheelbases_mm: list[float | None] | None = None,
     ) -> None:
         super().__init__()
@@ -82,7 +83,7 @@ class LitVehicleClassifier(L.LightningModule):
         """The one preprocessing of this classifier's input (ROI, resize, crop; the normalisation inside)."""
         hp = self.hparams
         return Preprocessing(int(hp.input_size_px), int(hp.eval_resize_px), float(hp.roi_enlarge_fraction),
-                             *self.normalisation)
+                             *self.normalisation, bool(hp.keep_aspect))
 
     def on_save_checkpoint(self, checkpoint: dict[str, Any]) -> None:
         checkpoint[PREPROCESSING_KEY] = self.preprocessing.as_dict()

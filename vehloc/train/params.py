@@ -58,6 +58,7 @@ class DataParams:
     input_size_px: int
     eval_resize_px: int | None
     roi_enlarge_fraction: float
+    keep_aspect: bool
     augment: AugmentParams
     batch_size: int
     eval_batch_size: int | None
@@ -155,6 +156,7 @@ class ModelParams:
     input_size_px: int
     eval_resize_px: int | None
     roi_enlarge_fraction: float
+    keep_aspect: bool
 
     def __post_init__(self) -> None:
         check_range("aux_loss_weight", self.aux_loss_weight, 0.0)

@@ -11,15 +11,17 @@ import numpy as np
 import torch
 from torchvision.transforms import v2
 
-from vehloc.data.preprocess import Preprocessing
+from vehloc.data.preprocess import Preprocessing, padded_square
 
 
 class TrainTransform:
-    """Random resized crop, horizontal flip and colour jitter of a BGR ROI, to RGB float [0, 1]."""
+    """Random resized crop, horizontal flip and colour jitter of a BGR ROI (first padded to a square when its
+    aspect is kept, as in `Preprocessing.to_input`), to RGB float [0, 1]."""
 
     def __init__(
         self,
         input_size_px: int,
+        keep_aspect: bool = False,
         crop_scale: Sequence[float] = (0.6, 1.0),
         crop_ratio: Sequence[float] = (0.75, 1.333),
         hflip: bool = True,
@@ -34,8 +36,11 @@ class TrainTransform:
             steps.append(v2.ColorJitter(color_jitter, color_jitter, color_jitter))
         steps.append(v2.ToDtype(torch.float32, scale=True))
         self.augment = v2.Compose(steps)
+        self.keep_aspect = keep_aspect
 
     def __call__(self, roi_bgr: np.ndarray) -> torch.Tensor:
+        if self.keep_aspect:
+            roi_bgr = padded_square(roi_bgr)
         rgb = cv2.cvtColor(roi_bgr, cv2.COLOR_BGR2RGB)
         return self.augment(torch.from_numpy(rgb).permute(2, 0, 1).contiguous())
 

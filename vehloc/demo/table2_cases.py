@@ -1,0 +1,65 @@
+"""One Table 2 case in-process: render the scene, calibrate its camera from its lane markers, localize its car
+with an exported classifier against the scene's truth. What `vehloc-demo` and the Table 2 experiment run."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+from hydra import compose, initialize_config_dir
+from hydra.core.global_hydra import GlobalHydra
+from omegaconf import OmegaConf
+
+from vehloc.config import config_dir
+from vehloc.geometry.localize import Localizer
+from vehloc.geometry.site import read_site, site_yaml
+from vehloc.geometry.site_calibration import calibrate_site, read_calibration, write_calibration_files
+from vehloc.geometry.truth import read_scene_truth
+from vehloc.geometry.video import read_still
+from vehloc.geometry.video_localization import VideoLocalization, localize_video
+from vehloc.infer.classifier import VehicleClassifier
+from vehloc.synth.scene import SceneSpec, write_scene
+from vehloc.synth.scene_site import scene_site
+
+TABLE2_SCENES = tuple(f"table2_{distance}_{angle}" for distance in ("middle", "close") for angle in ("0", "30", "minus30")) + \
+    tuple(f"table2_plate_{distance}_{angle}" for distance in ("middle", "close") for angle in ("0", "30", "minus30"))
+"""The paper's six poses seen side-on (wheel branch), then the six with the plate towards the camera."""
+
+
+def scene_spec(name: str) -> SceneSpec:
+    """The scene `conf/scene/<name>.yaml`, composed (inside a running vehloc Hydra app or outside one)."""
+    overrides = [f"scene={name}", "out=unused"]
+    if GlobalHydra.instance().is_initialized():
+        cfg = compose("scene", overrides=overrides)
+    else:
+        with initialize_config_dir(version_base="1.3", config_dir=str(config_dir()), job_name="scene"):
+            cfg = compose("scene", overrides=overrides)
+    return SceneSpec.from_dict(OmegaConf.to_container(cfg.scene, resolve=True))
+
+
+def render_case(spec: SceneSpec, folder: Path, click_noise_px: float = 2.0) -> Path:
+    """`folder/scene/`: the video, its truth and its site file; the video's path."""
+    video, _ = write_scene(spec, folder / "scene", site_yaml(scene_site(spec, click_noise_px, spec.seed)))
+    return video
+
+
+def calibrate_case(folder: Path) -> Path:
+    """`folder/calibration/`: the camera calibrated from the markers of the scene's first (empty) frame."""
+    video, site_path = folder / "scene" / "video.avi", folder / "scene" / "site.yaml"
+    image = read_still(video)
+    result = calibrate_site(read_site(site_path), image, image_name=str(video))
+    write_calibration_files(result, image, folder / "calibration", 1000.0, {"site": str(site_path), "image": str(video)})
+    return folder / "calibration" / "calibration.json"
+
+
+def localize_case(folder: Path, classifier: VehicleClassifier) -> VideoLocalization:
+    """`folder/localize/`: the scene's car localized (default settings) and its Table 2 rows."""
+    calibration = read_calibration(folder / "calibration" / "calibration.json")
+    truth = read_scene_truth(folder / "scene" / "ground_truth.json")
+    return localize_video(Localizer(classifier, calibration), folder / "scene" / "video.avi", folder / "localize",
+                          truth, progress=False)
+
+
+def case_table(folder: Path) -> pd.DataFrame:
+    """The Table 2 rows a localized case wrote."""
+    return pd.read_csv(folder / "localize" / "table2.csv")

@@ -1,0 +1,81 @@
+"""One video through the localizer and its files: the records (CSV + JSON), a picture of each localized
+vehicle, and the paper's Table 2 when the scene's truth is given. What `vehloc-localize` and `vehloc-demo` run."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pandas as pd
+from tqdm import tqdm
+
+from vehloc.atomic import write_image, write_text
+from vehloc.geometry.drawing import METHOD_COLOURS_BGR, draw_cuboid, write_birds_eye
+from vehloc.geometry.evaluation import table2_rows, write_case_figures, write_table2
+from vehloc.geometry.localize import LOCALIZED, Localizer, VehicleRecord
+from vehloc.geometry.truth import SceneTruth
+from vehloc.geometry.video import iter_frames, video_info
+
+
+@dataclass(frozen=True)
+class VideoLocalization:
+    """The records of one video and the files written for it (`table2` when truth was given)."""
+
+    records: tuple[VehicleRecord, ...]
+    frames: int
+    out_dir: Path
+    table2: pd.DataFrame | None
+
+    @property
+    def localized(self) -> int:
+        return sum(r.status == LOCALIZED for r in self.records)
+
+
+def records_json(records: list[VehicleRecord]) -> str:
+    return json.dumps([{**row} for record in records for row in record.rows()], indent=1, default=float)
+
+
+def annotate(frame_bgr: np.ndarray, record: VehicleRecord, localizer: Localizer, out_dir: Path) -> list[Path]:
+    """The frame with the estimated boxes drawn in, and the bird's-eye view of the estimates."""
+    image = frame_bgr.copy()
+    height_mm = record.dims_mm[2] if record.dims_mm else 1500.0
+    for estimate in record.estimates:
+        draw_cuboid(image, localizer.calibration.camera, estimate.box, height_mm, METHOD_COLOURS_BGR[estimate.method])
+    cv2.rectangle(image, (record.box_px.x0, record.box_px.y0), (record.box_px.x1 - 1, record.box_px.y1 - 1), (200, 200, 200), 1)
+    stem = f"track{record.track_id}_frame{record.frame}"
+    title = f"track {record.track_id}, frame {record.frame}: {record.make} {record.model} ({record.probability:.2f})"
+    return [write_image(out_dir / f"{stem}.png", image),
+            write_birds_eye(out_dir / f"{stem}_birds_eye.png", {e.method: e.box for e in record.estimates}, title)]
+
+
+def localize_video(localizer: Localizer, video: str | Path, out_dir: Path, truth: SceneTruth | None = None,
+                   max_frames: int | None = None, pictures: bool = True, progress: bool = True) -> VideoLocalization:
+    """Run `localizer` over `video` (its first `max_frames` frames) and write the records into `out_dir`; a
+    picture per localized vehicle with `pictures`; Table 2 and its bird's-eye figures with `truth`."""
+    info = video_info(video)
+    localizer.calibration.check_image_size(info.width_px, info.height_px, str(video))
+    out_dir.mkdir(parents=True, exist_ok=True)
+    total = info.frame_count if max_frames is None else min(info.frame_count, max_frames)
+    records: list[VehicleRecord] = []
+    frames = 0
+    for frame_index, frame in enumerate(tqdm(iter_frames(video), total=total, desc="frames", unit="frame",
+                                             disable=not progress)):
+        if frame_index >= total:
+            break
+        frames += 1
+        for record in localizer.process(frame_index, frame):
+            records.append(record)
+            if pictures and record.status == LOCALIZED:
+                annotate(frame, record, localizer, out_dir)
+    rows = [row for record in records for row in record.rows()]
+    write_text(out_dir / "records.csv", pd.DataFrame(rows).to_csv(index=False, float_format="%.2f"))
+    write_text(out_dir / "records.json", records_json(records))
+    table = None
+    if truth is not None:
+        table = pd.DataFrame(table2_rows(truth, records))
+        write_table2(table, out_dir, f"Table 2: {truth.name}")
+        write_case_figures(truth, records, out_dir)
+    return VideoLocalization(tuple(records), frames, out_dir, table)
