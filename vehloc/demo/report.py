@@ -9,6 +9,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.patches import Patch  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
@@ -62,9 +63,11 @@ def write_summary_png(path: Path, table1: pd.DataFrame, table2: pd.DataFrame, bi
         axes.set_yticks(y, [s.replace("table2_", "") for s in scenes] if column == 0 else [""] * len(scenes))
         axes.invert_yaxis()
         axes.set_xlabel(label)
-        axes.set_title("Table 2: " + label.split(" (")[0] + (" (hatched: misclassified)" if column else ""), fontsize=10)
+        axes.set_title("Table 2: " + label.split(" (")[0], fontsize=10)
         if column == 1:
-            axes.legend(loc="lower right")
+            handles, labels = axes.get_legend_handles_labels()
+            misclassified = Patch(facecolor="white", edgecolor="k", hatch="//")
+            axes.legend([*handles, misclassified], [*labels, "misclassified"], loc="lower right")
     for index, png in enumerate(birds_eye[:4]):
         axes = figure.add_subplot(grid[1, index])
         axes.imshow(plt.imread(png))
