@@ -6,7 +6,6 @@ the same settings (`force=true` redoes it); a failed step is named, and the step
 
 from __future__ import annotations
 
-import hashlib
 import shutil
 import subprocess
 import sys
@@ -23,12 +22,13 @@ from tqdm import tqdm
 from vehloc.atomic import check_output_dir
 from vehloc.config import ConfigError, build_params, check_choice, check_range, config_dir
 from vehloc.demo.report import write_report
-from vehloc.demo.stamps import forget, is_done, mark_done, seconds_taken
+from vehloc.demo.stamps import finished_at, forget, is_done, mark_done, seconds_taken
 from vehloc.demo.table2_cases import TABLE2_SCENES, calibrate_case, case_table, localize_case, render_case, scene_spec
 from vehloc.errors import VehlocError, exit_on_error, hydra_main
 from vehloc.geometry.evaluation import write_table2
 from vehloc.hardware import cpu_info
 from vehloc.infer.classifier import VehicleClassifier
+from vehloc.infer.metadata import file_sha256
 from vehloc.synth.demo_set import VIEWS, make_demo_set
 from vehloc.train.params import check_train_config
 
@@ -82,10 +82,6 @@ def _run_command(step: str, command: list[str], log: Path) -> None:
     if code:
         tail = [line for line in log.read_text(encoding="utf-8").splitlines() if line.strip()][-1:]
         raise StepError(f"step {step} failed (exit {code}): {' '.join(tail)} (log: {log})")
-
-
-def _sha256(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
 class Demo:
@@ -152,10 +148,10 @@ class Demo:
     def run(self) -> Path:
         d = self.params.data
         self.step("data", {"per_model": d.per_model, "seed": d.seed, "views": d.views}, self.data)
-        self.step("train", {"overrides": self.params.train_overrides, "data": _stamp_of(self.run_dir, "data")}, self.train)
-        self.step("export", {"checkpoint": _sha256(self.best_checkpoint())}, self.export)
+        self.step("train", {"overrides": self.params.train_overrides, "data": finished_at(self.run_dir, "data")}, self.train)
+        self.step("export", {"checkpoint": file_sha256(self.best_checkpoint())}, self.export)
         classifier = VehicleClassifier.from_onnx(self.model)
-        model_sha = _sha256(self.model)
+        model_sha = file_sha256(self.model)
         for name in tqdm(self.params.scenes, desc="Table 2 scenes", unit="scene", disable=None):
             try:
                 self.step(f"scene_{name}", {"scene": name}, lambda: self.scene(name))
@@ -167,18 +163,14 @@ class Demo:
         write_table2(table, table2_md.parent, f"Table 2: {len(self.params.scenes)} scenes, model {self.model.name}")
         header = (f"Made by `vehloc-demo out={self.run_dir}` on {cpu_info().describe()}; demo set of {d.per_model} "
                   f"images a model ({d.views} views), classifier exported to `{self.model.name}`.")
-        written = write_report(self.run_dir, self.train_dir / "table1", table, table2_md,
-                               {k: v for k, v in self.seconds.items() if not k.startswith(("scene_", "localize_"))}
-                               | {"scenes (render + calibrate)": sum(v for k, v in self.seconds.items() if k.startswith("scene_")),
-                                  "localize": sum(v for k, v in self.seconds.items() if k.startswith("localize_"))},
-                               header)
-        return written[0]
+        return write_report(self.run_dir, self.train_dir / "table1", table, table2_md, self.step_times(), header)[0]
 
-
-def _stamp_of(run_dir: Path, step: str) -> float | None:
-    """When `step` last finished (its stamp's time), so that a redone step redoes the ones after it."""
-    path = run_dir / ".steps" / f"{step}.json"
-    return path.stat().st_mtime_ns if path.is_file() else None
+    def step_times(self) -> dict[str, float]:
+        """Seconds per step, the per-scene steps summed into rendering (with calibration) and localization."""
+        per_scene = ("scene_", "localize_")
+        once = {name: seconds for name, seconds in self.seconds.items() if not name.startswith(per_scene)}
+        return once | {"scenes (render + calibrate)": sum(v for k, v in self.seconds.items() if k.startswith("scene_")),
+                       "localize": sum(v for k, v in self.seconds.items() if k.startswith("localize_"))}
 
 
 def check_demo_config(cfg: DictConfig) -> DemoParams:

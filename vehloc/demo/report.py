@@ -47,7 +47,7 @@ def write_summary_png(path: Path, table1: pd.DataFrame, table2: pd.DataFrame, bi
     accuracy.set_xlim(0, 100)
     accuracy.set_xlabel("top-1 on the test split (%)")
     accuracy.set_title("Table 1: classification per model")
-    localized = table2[table2.get("status", pd.Series(dtype=str)) == "localized"] if len(table2) else table2
+    localized = table2[table2["status"] == "localized"] if len(table2) else table2
     scenes = list(dict.fromkeys(table2["scene"])) if len(table2) else []
     for column, (key, limit, label) in enumerate((("position_err_pct", PAPER_POSITION_PCT, "position error (% of diagonal)"),
                                                     ("heading_err_deg", PAPER_HEADING_DEG, "|heading error| (deg)"))):

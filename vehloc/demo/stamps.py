@@ -43,6 +43,12 @@ def seconds_taken(run_dir: Path, step: str) -> float | None:
         return None
 
 
+def finished_at(run_dir: Path, step: str) -> int | None:
+    """When `step` last finished (its stamp's time, ns), so that the steps after a redone one are redone."""
+    path = _stamp_path(run_dir, step)
+    return path.stat().st_mtime_ns if path.is_file() else None
+
+
 def forget(run_dir: Path, step: str) -> None:
     """Mark `step` as not done (its stamp removed), before it runs again."""
     _stamp_path(run_dir, step).unlink(missing_ok=True)

@@ -13,7 +13,6 @@ This module is where deployment meets training: it needs torch, the rest of `veh
 
 from __future__ import annotations
 
-import hashlib
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -28,7 +27,7 @@ from vehloc.data.shapes import VehicleShape
 from vehloc.data.specs import VehicleSpec
 from vehloc.errors import VehlocError
 from vehloc.infer.classifier import VehicleClassifier
-from vehloc.infer.metadata import ModelMetadata, attach_metadata
+from vehloc.infer.metadata import ModelMetadata, attach_metadata, file_sha256
 from vehloc.train.dataset import CompCarsCrops
 from vehloc.train.module import LitVehicleClassifier, load_classifier, preprocessing_of, read_checkpoint
 from vehloc.train.transforms import EvalTransform
@@ -61,14 +60,6 @@ class DeployedClassifier(torch.nn.Module):
     def forward(self, images: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         logits = self.classifier(images)
         return logits, torch.softmax(logits, dim=1)
-
-
-def file_sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with path.open("rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def metadata_of(checkpoint: dict, checkpoint_path: Path, shapes: dict[int, VehicleShape] | None = None) -> ModelMetadata:

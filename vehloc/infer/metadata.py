@@ -10,9 +10,11 @@ reference) and returns logits and probabilities per class.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 from collections.abc import Sequence
+from pathlib import Path
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
@@ -30,6 +32,15 @@ FORMAT_VERSION = 2
 class ModelFileError(VehlocError):
     """An ONNX file is missing, unreadable, or not a vehloc model."""
 
+
+
+def file_sha256(path: Path) -> str:
+    """The SHA-256 of a file's bytes, read in 1 MiB blocks (a checkpoint's, recorded in the metadata)."""
+    digest = hashlib.sha256()
+    with Path(path).open("rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
 
 @dataclass(frozen=True)
 class ModelMetadata:
