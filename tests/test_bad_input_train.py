@@ -31,6 +31,8 @@ TRAIN_CASES = {
     "input_size_0": (["data.input_size_px=0"], ["data.input_size_px: must be >= 32, got 0"]),
     "eval_resize_below_input": (["data.eval_resize_px=16"], ["data.eval_resize_px: must be >= input_size_px (32) or null, got 16"]),
     "val_fraction_over_1": (["data.val_fraction=1.5"], ["data.val_fraction: must be in [0, 1), got 1.5"]),
+    "val_fraction_0_selects_on_test": (["data.val_fraction=0"], ["data.val_fraction: 0 would choose the checkpoint on the test split"]),
+    "select_on_test_with_a_carve_out": (["data.select_on_test=true"], ["data.select_on_test: true validates on the test split"]),
     "roi_enlarge_negative": (["data.roi_enlarge_fraction=-0.1"], ["data.roi_enlarge_fraction: must be in [0, 1], got -0.1"]),
     "num_workers_negative": (["data.num_workers=-2"], ["data.num_workers: must be >= 0, got -2"]),
     "crop_scale": (["data.augment.crop_scale=[0.5,2]"], ["data.augment.crop_scale: expected [low, high] with 0 < low <= high <= 1"]),

@@ -14,6 +14,7 @@ import pytest
 import torch
 from conftest import write_tiny_compcars
 
+from vehloc.train.checkpoints import chosen_on_test_split
 from vehloc.train.evaluate import evaluate
 from vehloc.train.instantiate import compose_config
 from vehloc.train.train import train
@@ -32,6 +33,13 @@ def trained(tmp_path_factory: pytest.TempPathFactory) -> dict:
     metrics, objects = train(cfg)
     best = Path(objects["trainer"].checkpoint_callback.best_model_path)
     return {"root": root, "run": run, "metrics": metrics, "best": best}
+
+
+def test_a_checkpoint_says_whether_its_run_chose_it_on_the_test_split():
+    assert chosen_on_test_split({"datamodule_hyper_parameters": {"val_fraction": 0.0, "select_on_test": True}})
+    assert not chosen_on_test_split({"datamodule_hyper_parameters": {"val_fraction": 0.1, "select_on_test": False}})
+    assert chosen_on_test_split({"datamodule_hyper_parameters": {"val_fraction": 0.0}})  # written before the setting
+    assert not chosen_on_test_split({})
 
 
 def run_eval(*args: str, cwd: Path) -> subprocess.CompletedProcess:

@@ -53,9 +53,19 @@ def test_val_split_from_train_or_test(tiny_root: Path):
     assert len(dm.train_set) == 6 and len(dm.val_set) == 3 and len(dm.test_set) == 3
     val_paths = {s.rel_path for s in dm.val_set.samples}
     assert not val_paths & {s.rel_path for s in dm.train_set.samples}
-    dm_test_val = CompCarsDataModule(str(tiny_root), input_size_px=32, num_workers=0)
+    assert dm.test_split_warning == ""
+    dm_test_val = CompCarsDataModule(str(tiny_root), input_size_px=32, num_workers=0, val_fraction=0.0,
+                                     select_on_test=True)
     dm_test_val.setup("fit")
     assert [s.rel_path for s in dm_test_val.val_set.samples] == [s.rel_path for s in dm_test_val.test_set.samples]
+    assert "chosen on this same test split" in dm_test_val.test_split_warning
+
+
+def test_default_data_module_never_validates_on_the_test_split(tiny_root: Path):
+    dm = CompCarsDataModule(str(tiny_root), input_size_px=32, num_workers=0)
+    dm.setup("fit")
+    test_paths = {s.rel_path for s in dm.test_set.samples}
+    assert dm.val_set.samples and not {s.rel_path for s in dm.val_set.samples} & test_paths
 
 
 def test_balanced_sampling_draws_classes_evenly(tiny_root: Path):

@@ -66,7 +66,8 @@ def error_lines(stderr: str, prog: str) -> list[str]:
 
 
 @pytest.mark.parametrize("extra", [[], ["model.channels_last=true", "trainer.precision=bf16-mixed",
-                                          "model.optimizer.name=adamw", "model.scheduler.name=step"]])
+                                          "model.optimizer.name=adamw", "model.scheduler.name=step",
+                                          "data.val_fraction=0", "data.select_on_test=true"]])
 def test_fast_dev_run_trains_tests_and_writes_table1(extra: list[str], tiny_root: Path, tmp_path: Path):
     cfg = compose_config("train", tiny_overrides(tiny_root, "debug=fdr", *extra), tmp_path)
     metrics, objects = train(cfg)
@@ -78,7 +79,10 @@ def test_fast_dev_run_trains_tests_and_writes_table1(extra: list[str], tiny_root
     assert (tmp_path / "table1" / "confusion_matrix.png").is_file()
     assert objects["trainer"].fast_dev_run
     precision = objects["trainer"].precision
-    assert f"Precision {precision} on {cpu_info().model_name}" in (tmp_path / "table1" / "report.md").read_text()
+    report = (tmp_path / "table1" / "report.md").read_text()
+    assert f"Precision {precision} on {cpu_info().model_name}" in report
+    selected_on_test = "data.select_on_test=true" in extra
+    assert report.splitlines()[0].startswith("**Optimistic" if selected_on_test else "# Evaluation")
 
 
 def test_overfitting_one_batch_learns_it(tiny_root: Path, tmp_path: Path):
@@ -105,13 +109,14 @@ def test_overfitting_one_batch_learns_it(tiny_root: Path, tmp_path: Path):
 def test_a_killed_run_resumes_from_last_with_optimizer_scheduler_and_epoch(tiny_root: Path, tmp_path: Path):
     first = tmp_path / "first"
     kill = ["+callbacks.kill._target_=test_train_run.KillMidEpoch", "+callbacks.kill.epoch=1",
-            "+callbacks.kill.batches=2"]
+            "+callbacks.kill.batches=1"]
     cfg = compose_config("train", tiny_overrides(tiny_root, "trainer.max_epochs=3", "data.batch_size=3", *kill), first)
     with pytest.raises(RuntimeError, match="killed"):
         train(cfg)
     last = first / "checkpoints" / "last.ckpt"
     saved = torch.load(last, map_location="cpu", weights_only=True)
-    assert saved["epoch"] == 0 and saved["global_step"] == 3  # epoch 0 (9 images, 3 a batch) completed
+    # epoch 0 completed: 6 images (9 less the validation carve-out of one a model), 3 a batch
+    assert saved["epoch"] == 0 and saved["global_step"] == 2
     digest = hashlib.sha256(last.read_bytes()).hexdigest()
     assert not list(first.glob("checkpoints/.*.tmp"))
 
@@ -121,14 +126,14 @@ def test_a_killed_run_resumes_from_last_with_optimizer_scheduler_and_epoch(tiny_
         tiny_root, "trainer.max_epochs=3", "data.batch_size=3", f"ckpt_path={last}", *record), second)
     _, objects = train(cfg)
     seen = RecordStart.seen
-    assert seen["epoch"] == 1 and seen["global_step"] == 3
+    assert seen["epoch"] == 1 and seen["global_step"] == 2
     saved_state = saved["optimizer_states"][0]["state"]
     assert len(seen["momentum"]) == len(saved_state) > 0
     for index, buffer in enumerate(seen["momentum"].values()):
         assert torch.equal(buffer, saved_state[index]["momentum_buffer"])
-    assert seen["scheduler_last_epoch"] == saved["lr_schedulers"][0]["last_epoch"] == 3
+    assert seen["scheduler_last_epoch"] == saved["lr_schedulers"][0]["last_epoch"] == 2
     assert torch.equal(seen["fc_weight"], saved["state_dict"]["net.fc.weight"])
-    assert objects["trainer"].current_epoch == 3 and objects["trainer"].global_step == 9
+    assert objects["trainer"].current_epoch == 3 and objects["trainer"].global_step == 6
     resumed = pd.read_csv(second / "csv" / "metrics.csv")
     assert sorted(resumed.dropna(subset=["train/loss"])["epoch"].astype(int)) == [1, 2]
     assert hashlib.sha256(last.read_bytes()).hexdigest() == digest  # the source checkpoint is untouched

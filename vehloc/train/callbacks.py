@@ -56,5 +56,6 @@ class Table1Writer(L.Callback):
         )
         device = device_description(gpu=trainer.strategy.root_device.type == "cuda")
         self.written = write_report(tables, classes.names, self.out_dir, title="Evaluation on the test split",
-                                    run_line=f"Precision {trainer.precision} on {device}.")
+                                    run_line=f"Precision {trainer.precision} on {device}.",
+                                    warning=trainer.datamodule.test_split_warning)
         rank_zero_info(f"Table 1 and evaluation tables written to {self.out_dir}")

@@ -68,6 +68,15 @@ def preprocessing_of(checkpoint: dict[str, Any], path: str | Path) -> Preprocess
         raise CheckpointError(f"{path}: bad preprocessing description ({err})") from None
 
 
+def chosen_on_test_split(checkpoint: dict[str, Any]) -> bool:
+    """Whether the run that wrote the checkpoint validated on the test split (`data.select_on_test=true`, or
+    `val_fraction=0` before that setting existed); False when the checkpoint does not say."""
+    data = checkpoint.get("datamodule_hyper_parameters") or {}
+    if "select_on_test" in data:
+        return bool(data["select_on_test"])
+    return data.get("val_fraction", 1.0) == 0.0
+
+
 def check_classes(
     checkpoint: dict[str, Any], class_model_ids: Sequence[int], path: str | Path,
     class_makes: Sequence[str] | None = None, class_models: Sequence[str] | None = None, data_name: str = "the data set",

@@ -40,7 +40,8 @@ def carve_validation(labels: Sequence[int], val_fraction: float, seed: int) -> t
 class CompCarsDataModule(L.LightningDataModule):
     """Train/val/test loaders of enlarged vehicle ROIs from a CompCars-format root.
 
-    Validation uses `val_fraction` of train (stratified) when it is above 0, else the test split.
+    Validation (the choice of the best epoch) uses `val_fraction` of train, stratified; only with
+    `select_on_test=True` (and `val_fraction=0`) the test split, which `test_split_warning` then names.
     Validation and test images go through `eval_preprocessing`: the data config's ROI enlargement, resize and
     input size until the model's own preprocessing is given with `use_preprocessing` (training does so; the
     evaluation of a checkpoint gives the checkpoint's).
@@ -60,7 +61,8 @@ class CompCarsDataModule(L.LightningDataModule):
         num_workers: int = 2,
         pin_memory: bool = False,
         balanced_sampling: bool = False,
-        val_fraction: float = 0.0,
+        val_fraction: float = 0.1,
+        select_on_test: bool = False,
         seed: int = 0,
     ) -> None:
         super().__init__()
@@ -113,7 +115,7 @@ class CompCarsDataModule(L.LightningDataModule):
         self.specs.require(data.model_ids, data.model_names)
         train_samples, train_labels = data.train, data.labels("train")
         test_samples, test_labels = data.test, data.labels("test")
-        if self.hparams.val_fraction > 0:
+        if not self.hparams.select_on_test:
             keep, held_out = carve_validation(train_labels, self.hparams.val_fraction, self.hparams.seed)
             val_samples = [train_samples[i] for i in held_out]
             val_labels = [train_labels[i] for i in held_out]
@@ -124,6 +126,14 @@ class CompCarsDataModule(L.LightningDataModule):
         self.train_set = self._crops(train_samples, train_labels, train=True)
         self.val_set = self._crops(val_samples, val_labels, train=False)
         self.test_set = self._crops(test_samples, test_labels, train=False)
+
+    @property
+    def test_split_warning(self) -> str:
+        """The line a report opens with when the checkpoint was chosen on the test split it is scored on."""
+        if not self.hparams.select_on_test:
+            return ""
+        return ("**Optimistic: the checkpoint was chosen on this same test split (data.select_on_test=true); "
+                "these figures are not an unseen-data estimate.**")
 
     def _loader(self, dataset: CompCarsCrops, batch_size: int, shuffle: bool, sampler=None,
                 drop_last: bool = False) -> DataLoader:
@@ -146,9 +156,10 @@ class CompCarsDataModule(L.LightningDataModule):
 
     def train_dataloader(self) -> DataLoader:
         sampler = self._balanced_sampler(self.train_set.labels) if self.hparams.balanced_sampling else None
-        # a last batch of one image would break batch normalisation in training
+        # a last batch of one image would break batch normalisation in training; each process sees its share
+        per_process = len(self.train_set) // (self.trainer.world_size if self.trainer is not None else 1)
         return self._loader(self.train_set, self.hparams.batch_size, shuffle=True, sampler=sampler,
-                            drop_last=len(self.train_set) > self.hparams.batch_size)
+                            drop_last=per_process > self.hparams.batch_size)
 
     def val_dataloader(self) -> DataLoader:
         return self._loader(self.val_set, self.hparams.eval_batch_size or self.hparams.batch_size, shuffle=False)

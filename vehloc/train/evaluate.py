@@ -23,7 +23,7 @@ def evaluate(cfg: DictConfig) -> tuple[dict[str, float], dict[str, Any]]:
     The test images go through the checkpoint's own preprocessing (ROI enlargement, resize, input size:
     those it was trained with), whatever the data config says."""
     data = check_eval_config(cfg)
-    from vehloc.train.checkpoints import check_classes, preprocessing_of, read_checkpoint
+    from vehloc.train.checkpoints import check_classes, chosen_on_test_split, preprocessing_of, read_checkpoint
     from vehloc.train.classes import class_info, read_dataset, read_specs
 
     checkpoint = read_checkpoint(cfg.ckpt_path)
@@ -43,7 +43,10 @@ def evaluate(cfg: DictConfig) -> tuple[dict[str, float], dict[str, Any]]:
     )
     from vehloc.train.module import load_classifier
 
-    datamodule = instantiate(cfg.data, "data", _convert_="all")
+    # the report opens with a warning when the checkpoint's own run chose it on this test split
+    on_test = chosen_on_test_split(checkpoint)
+    datamodule = instantiate(cfg.data, "data", _convert_="all", select_on_test=on_test,
+                             val_fraction=0.0 if on_test else cfg.data.val_fraction)
     datamodule.use_data(dataset, specs)
     datamodule.use_preprocessing(preprocessing)
     model = load_classifier(checkpoint, cfg.ckpt_path, **{k: v for k, v in classes.items() if k != "class_model_ids"})

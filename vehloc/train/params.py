@@ -66,6 +66,7 @@ class DataParams:
     pin_memory: bool
     balanced_sampling: bool
     val_fraction: float
+    select_on_test: bool
     seed: int | None
 
     def __post_init__(self) -> None:
@@ -79,6 +80,11 @@ class DataParams:
             check_range("eval_batch_size", self.eval_batch_size, 1)
         check_range("num_workers", self.num_workers, 0)
         check_range("val_fraction", self.val_fraction, 0.0, 1.0, high_open=True)
+        if self.select_on_test and self.val_fraction > 0:
+            raise SettingError("select_on_test", f"true validates on the test split: set val_fraction=0, not {self.val_fraction}")
+        if not self.select_on_test and self.val_fraction == 0:
+            raise SettingError("val_fraction", "0 would choose the checkpoint on the test split: give a share of train "
+                                               "(e.g. 0.1), or set data.select_on_test=true to do so knowingly")
         if self.seed is not None:
             check_range("seed", self.seed, 0, MAX_SEED)
 

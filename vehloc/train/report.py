@@ -56,18 +56,18 @@ def write_confusion_png(confusion: np.ndarray, names: Sequence[str], path: Path)
 
 
 def write_report(tables: EvalTables, names: Sequence[str], out_dir: Path, title: str = "Evaluation",
-                 run_line: str = "") -> list[Path]:
-    """Write every table as CSV, `report.md` (Table 1, accuracy, dimension errors, confused pairs; `run_line`,
-    e.g. the precision and device, under the summary) and `confusion_matrix.png` into `out_dir`; return the
+                 run_line: str = "", warning: str = "") -> list[Path]:
+    """Write every table as CSV, `report.md` (`warning`, when given, as its first line; Table 1, accuracy,
+    dimension errors, confused pairs; `run_line`, e.g. the precision and device, under the summary) and `confusion_matrix.png` into `out_dir`; return the
     written paths. The folder is built beside `out_dir` and takes its place whole when every file is written,
     so an interrupt or a failure leaves earlier tables there as they were, never a mix."""
     with atomic_dir(out_dir) as staging:
-        names_written = _write_report_files(tables, names, staging, title, run_line)
+        names_written = _write_report_files(tables, names, staging, title, run_line, warning)
     return [out_dir / name for name in names_written]
 
 
-def _write_report_files(tables: EvalTables, names: Sequence[str], out_dir: Path, title: str, run_line: str
-                        ) -> list[str]:
+def _write_report_files(tables: EvalTables, names: Sequence[str], out_dir: Path, title: str, run_line: str,
+                        warning: str) -> list[str]:
     written = []
     for name, frame in (
         ("table1", tables.table1),
@@ -80,7 +80,8 @@ def _write_report_files(tables: EvalTables, names: Sequence[str], out_dir: Path,
         frame.to_csv(path, index=False, float_format="%.4f")
         written.append(path)
     accuracy = tables.accuracy.set_index("metric")["value"]
-    sections = [
+    sections = [warning] if warning else []
+    sections += [
         f"# {title}",
         f"{int(accuracy['images'])} test images of {int(accuracy['classes'])} models: "
         f"top-1 {accuracy['top1_pct']:.2f} %, top-5 {accuracy['top5_pct']:.2f} %, "
