@@ -21,7 +21,7 @@ from vehloc.data.boxes import Box
 from vehloc.errors import VehlocError
 from vehloc.geometry.keypoints import DetectorParams, NotLocalized, paper_placement
 from vehloc.geometry.model_fit import FitParams, fit_model
-from vehloc.geometry.placement import VehicleBox, facing, heading_of
+from vehloc.geometry.placement import VehicleBox, direction_of, facing, heading_of
 from vehloc.geometry.projective import HorizonError
 from vehloc.geometry.roi import StoppedVehicleTracker, Track, TrackerParams, VehicleRoiExtractor, RoiParams
 from vehloc.geometry.site_calibration import CameraCalibration
@@ -40,6 +40,19 @@ from vehloc.infer.classifier import VehicleClassifier
 LOCALIZED, NOT_LOCALIZED = "localized", "not localized"
 
 
+def travel_start_box(nearest_mm: np.ndarray, camera_foot_mm: np.ndarray, length_mm: float, width_mm: float,
+                     heading_deg: float) -> VehicleBox:
+    """Where the model fit starts without key points: the road point under the box's bottom taken as the
+    footprint's point nearest the camera, the centre half the footprint's extent beyond it along the line of
+    sight from the camera's foot, the heading that of the track's travel."""
+    sight = np.asarray(nearest_mm, dtype=float) - np.asarray(camera_foot_mm, dtype=float)
+    sight = sight / np.linalg.norm(sight)
+    forward = direction_of(heading_deg)
+    left = np.array([-forward[1], forward[0]])
+    depth_mm = length_mm / 2 * abs(sight @ forward) + width_mm / 2 * abs(sight @ left)
+    return VehicleBox(np.asarray(nearest_mm, dtype=float) + depth_mm * sight, heading_deg, length_mm, width_mm)
+
+
 @dataclass(frozen=True)
 class PipelineParams:
     """Settings of the pipeline itself (`conf/localize/pipeline/default.yaml`)."""
@@ -52,6 +65,7 @@ class PipelineParams:
     uncertainty_top_k: int
     uncertainty_min_probability: float
     fit: bool
+    fit_from_travel: bool
 
     @classmethod
     def from_config(cls, **overrides: object) -> PipelineParams:
@@ -199,7 +213,17 @@ class Localizer:
                                             self.classifier.metadata.shape_of(spec.model_id), self.detectors,
                                             self.visible_end(track))
         except (NotLocalized, HorizonError) as why:
-            return VehicleRecord(**{**record.__dict__, "status": NOT_LOCALIZED, "reason": str(why)})
+            travel = self.travel_heading_deg(track)
+            nearest_known = np.all(np.isfinite(self.states[track.track_id].ground_points_mm[-1]))
+            if not (self.params.fit and self.params.fit_from_travel and travel is not None and nearest_known):
+                return VehicleRecord(**{**record.__dict__, "status": NOT_LOCALIZED, "reason": str(why)})
+            start = travel_start_box(self.states[track.track_id].ground_points_mm[-1],
+                                     self.calibration.camera.centre_mm[:2], spec.length_mm, spec.width_mm, travel)
+            with self.clock.stage("model fit"):
+                silhouette = self.extractor.foreground(roi)
+                fit = self._fit(start, silhouette.weights, roi, probabilities, travel)
+            return VehicleRecord(**{**record.__dict__, "reason": f"fit from the track's travel ({why})",
+                                    "estimates": (fit,)})
         travel = self.travel_heading_deg(track)
         paper_box = facing(placement.box, travel) if travel is not None else placement.box
         estimates = [Estimate("paper", paper_box, placement.kind, self._paper_uncertainty(paper_box, placement.kind,
