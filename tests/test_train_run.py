@@ -139,6 +139,32 @@ def test_a_killed_run_resumes_from_last_with_optimizer_scheduler_and_epoch(tiny_
     assert hashlib.sha256(last.read_bytes()).hexdigest() == digest  # the source checkpoint is untouched
 
 
+class RecordTestWeights(L.Callback):
+    """Records the weights the test loop runs on."""
+
+    seen: dict = {}
+
+    def on_test_start(self, trainer, pl_module) -> None:
+        RecordTestWeights.seen = {k: v.detach().clone() for k, v in pl_module.state_dict().items()}
+
+
+def test_weight_ema_is_what_checkpoints_hold_and_the_test_runs_on(tiny_root: Path, tmp_path: Path):
+    """With callbacks=ema, the best checkpoint's state_dict is the average (the training weights aside under
+    current_model_state), and the test loop runs on exactly those weights."""
+    record = ["+callbacks.record._target_=test_train_run.RecordTestWeights"]
+    cfg = compose_config("train", tiny_overrides(
+        tiny_root, "callbacks=ema", "callbacks.ema.decay=0.5", "trainer.max_epochs=2", "data.batch_size=3",
+        *record), tmp_path)
+    train(cfg)
+    (best,) = [p for p in (tmp_path / "checkpoints").glob("epoch_*.ckpt")]
+    saved = torch.load(best, map_location="cpu", weights_only=True)
+    average, current = saved["state_dict"], saved["current_model_state"]
+    assert not torch.equal(average["net.fc.weight"], current["net.fc.weight"])
+    assert RecordTestWeights.seen.keys() == average.keys()
+    for name, value in average.items():
+        assert torch.equal(RecordTestWeights.seen[name], value), name
+
+
 def test_ddp_sim_trains_with_two_cpu_processes(tiny_root: Path, tmp_path: Path):
     cfg = compose_config("train", tiny_overrides(tiny_root, "trainer=ddp_sim", "logger=csv"), tmp_path)
     metrics, objects = train(cfg)

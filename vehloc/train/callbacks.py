@@ -1,4 +1,5 @@
-"""Lightning callbacks of the workbench: the Table 1 writer run after every test loop."""
+"""Lightning callbacks of the workbench: the Table 1 writer run after every test loop, and the exponential
+moving average of the weights."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ from typing import Any
 import lightning as L
 import numpy as np
 import torch
+from lightning.pytorch.callbacks import EMAWeightAveraging
 from lightning.pytorch.utilities import rank_zero_info
 
 from vehloc.train.precision import device_description
@@ -59,3 +61,16 @@ class Table1Writer(L.Callback):
                                     run_line=f"Precision {trainer.precision} on {device}.",
                                     warning=trainer.datamodule.test_split_warning)
         rank_zero_info(f"Table 1 and evaluation tables written to {self.out_dir}")
+
+
+class WeightEMA(EMAWeightAveraging):
+    """Exponential moving average of the weights (and batch-norm statistics), updated after every training
+    step: validation, the checkpoints' `state_dict`, the test and so the export all use the average.
+
+    Lightning's callback puts the training weights back when any checkpoint is loaded; here that happens only
+    when a fit resumes, so the test of the best checkpoint runs on the average it was chosen with.
+    """
+
+    def on_load_checkpoint(self, trainer: L.Trainer, pl_module: L.LightningModule, checkpoint: dict[str, Any]) -> None:
+        if trainer.state.fn == "fit":
+            super().on_load_checkpoint(trainer, pl_module, checkpoint)

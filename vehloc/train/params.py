@@ -18,7 +18,10 @@ from omegaconf.errors import OmegaConfBaseException
 
 from vehloc.config import ConfigError, SettingError, build_params, check_choice, check_range
 
-BACKBONE_NAMES = ("googlenet", "resnet50", "efficientnet_b0", "convnext_tiny", "efficientnet_lite0")
+BACKBONE_NAMES = (
+    "googlenet", "resnet50", "efficientnet_b0", "convnext_tiny", "efficientnet_lite0", "efficientnet_lite1",
+    "efficientnet_lite2",
+)
 """The backbones of `vehloc.train.backbones.RECIPES` (a test holds the two lists equal)."""
 OPTIMIZERS = ("sgd", "adamw")
 SCHEDULES = ("cosine", "step", "none")
@@ -163,11 +166,17 @@ class ModelParams:
     eval_resize_px: int | None
     roi_enlarge_fraction: float
     keep_aspect: bool
+    flip_average: bool = False
+    freeze_bn_stats: bool = False
+    layer_decay: float = 1.0
+    mixup_alpha: float = 0.0
 
     def __post_init__(self) -> None:
         check_range("aux_loss_weight", self.aux_loss_weight, 0.0)
         check_range("label_smoothing", self.label_smoothing, 0.0, 1.0, high_open=True)
         check_range("expected_top_k", self.expected_top_k, 1)
+        check_range("layer_decay", self.layer_decay, 0.0, 1.0, low_open=True)
+        check_range("mixup_alpha", self.mixup_alpha, 0.0)
 
 
 def _is_int(value: Any) -> bool:

@@ -49,25 +49,41 @@ class WarmupStep:
         return self.gamma ** ((step - self.warmup_steps) // max(1, self.step_size))
 
 
+def block_depths(names: list[str]) -> list[int]:
+    """Depth of each backbone parameter, as the index of its block in registration order: a block is a
+    top-level module (`net.conv1`), or an item of a top-level sequence (`net._blocks.3`, `net.layer1.0`)."""
+    blocks: dict[str, int] = {}
+    depths = []
+    for name in names:
+        parts = name.split(".")
+        block = ".".join(parts[:3] if len(parts) > 3 and parts[2].isdigit() else parts[:2])
+        depths.append(blocks.setdefault(block, len(blocks)))
+    return depths
+
+
 def param_groups(
     named_params: Iterable[tuple[str, nn.Parameter]],
     head_prefixes: tuple[str, ...],
     lr_backbone: float,
     lr_head: float,
     weight_decay: float,
+    layer_decay: float = 1.0,
 ) -> list[dict]:
-    """Four groups: backbone/head x decayed (weights) / not decayed (biases and normalisation)."""
-    groups = {
-        (is_head, decay): {"params": [], "lr": lr_head if is_head else lr_backbone,
-                           "weight_decay": weight_decay if decay else 0.0}
-        for is_head in (False, True) for decay in (False, True)
-    }
-    for name, param in named_params:
-        if not param.requires_grad:
-            continue
-        is_head = any(name == p or name.startswith(p + ".") for p in head_prefixes)
-        groups[(is_head, param.ndim > 1)]["params"].append(param)
-    return [g for g in groups.values() if g["params"]]
+    """Groups by learning rate x decayed (weights) / not decayed (biases and normalisation): the heads at
+    `lr_head`, the backbone at `lr_backbone` times `layer_decay` for each block below its top block."""
+    trainable = [(name, param) for name, param in named_params if param.requires_grad]
+    is_head = [any(name == p or name.startswith(p + ".") for p in head_prefixes) for name, _ in trainable]
+    backbone_names = [name for (name, _), head in zip(trainable, is_head) if not head]
+    depths = dict(zip(backbone_names, block_depths(backbone_names)))
+    top = max(depths.values(), default=0)
+    groups: dict[tuple[bool, float, bool], dict] = {}
+    for (name, param), head in zip(trainable, is_head):
+        lr = lr_head if head else lr_backbone * layer_decay ** (top - depths[name])
+        decay = param.ndim > 1
+        group = groups.setdefault((head, lr, decay), {"params": [], "lr": lr,
+                                                      "weight_decay": weight_decay if decay else 0.0})
+        group["params"].append(param)
+    return list(groups.values())
 
 
 def build_optimizer(groups: list[dict], name: str, momentum: float = 0.9, nesterov: bool = False,
