@@ -27,6 +27,8 @@ from vehloc.tables import markdown_table  # noqa: E402
 PROJECT_ROOT = Path(__file__).resolve().parents[2]
 LEVERS: dict[str, list[str]] = {
     "base": [],
+    "size_224": ["data.input_size_px=224", "data.eval_resize_px=240"],
+    "epochs_12": ["trainer.max_epochs=12"],
     "flip_average": ["model.flip_average=true"],
     "ema": ["callbacks=ema"],
     "freeze_bn_stats": ["model.freeze_bn_stats=true"],
