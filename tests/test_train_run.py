@@ -85,6 +85,17 @@ def test_fast_dev_run_trains_tests_and_writes_table1(extra: list[str], tiny_root
     assert report.splitlines()[0].startswith("**Optimistic" if selected_on_test else "# Evaluation")
 
 
+@pytest.mark.parametrize("freeze", [True, False])
+def test_freeze_bn_stats_holds_through_a_lightning_fit(freeze: bool, tiny_root: Path, tmp_path: Path):
+    """With model.freeze_bn_stats=true the batch-norm statistics a fit starts from are those it ends with."""
+    cfg = compose_config("train", tiny_overrides(tiny_root, "debug=fdr", f"model.freeze_bn_stats={freeze}", "test=false"),
+                         tmp_path)
+    _, objects = train(cfg)
+    bn = objects["model"].net.conv1.bn
+    assert (int(bn.num_batches_tracked) == 0) is freeze
+    assert bool(torch.all(bn.running_mean == 0)) is freeze  # a fresh network's statistics: mean 0
+
+
 def test_overfitting_one_batch_learns_it(tiny_root: Path, tmp_path: Path):
     """The six train images (nine less the validation carve-out), the same batch 40 times, the learning rate
     annealed to zero: the loss falls to a small fraction of where it started and every image of the batch is

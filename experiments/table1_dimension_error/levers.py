@@ -1,6 +1,7 @@
 """Fine-tuning levers measured side by side: one `vehloc-train` run per lever, each the base recipe plus the
 lever's overrides, one after another on the same machine; the test split is only read for the table (the best
-epoch is chosen on a tenth of train). Writes levers.csv, levers.md and levers.png into --out.
+epoch is chosen on a tenth of train). Writes levers.csv, levers.md and levers.png into --out; levers already in
+its levers.csv are kept, not run again.
 
     .venv/bin/python experiments/table1_dimension_error/levers.py --out outputs/levers
     .venv/bin/python experiments/table1_dimension_error/levers.py --out outputs/levers_224 \
@@ -35,6 +36,8 @@ LEVERS: dict[str, list[str]] = {
     "layer_decay_0.85": ["model.layer_decay=0.85"],
     "mixup_0.2": ["model.mixup_alpha=0.2"],
     "one_cycle_warmup_30pct": ["model.scheduler.warmup_epochs=2.4"],
+    "batch_16": ["data.batch_size=16"],
+    "lr_x2": ["model.optimizer.lr_backbone=1.0e-3", "model.optimizer.lr_head=1.0e-2"],
     "keep_aspect": ["data.keep_aspect=true"],
     "lite1": ["model=efficientnet_lite1"],
     "lite2": ["model=efficientnet_lite2"],
@@ -89,8 +92,11 @@ def main() -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     header = (f"experiment={args.experiment} {' '.join(args.base)} — one run a lever on "
               f"{cpu_info().describe()}")
-    rows = []
+    done = args.out / "levers.csv"
+    rows = pd.read_csv(done).drop(columns="top1_vs_base").to_dict("records") if done.is_file() else []
     for name in args.only or LEVERS:
+        if name in {row["lever"] for row in rows}:
+            continue
         rows.append(run_lever(name, LEVERS[name], args.experiment, args.base, args.out))
         write_tables(rows, args.out, header)
     print(f"levers: {args.out / 'levers.md'}")

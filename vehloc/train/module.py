@@ -153,6 +153,7 @@ class LitVehicleClassifier(L.LightningModule):
         return loss, logits, targets
 
     def on_train_start(self) -> None:
+        self.train()  # Lightning leaves the modules' modes as they are: apply freeze_bn_stats here
         self.val_loss.reset()
         self.val_metrics.reset()
         self.val_acc_best.reset()
