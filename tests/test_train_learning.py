@@ -17,13 +17,13 @@ PROJECT_ROOT = Path(__file__).resolve().parents[1]
 
 @pytest.mark.slow
 def test_stanford_cars_12_fine_tunes_far_above_chance(stanford_root: Path, tmp_path: Path):
-    # the experiment shortened to 2 epochs at 96 px (31.2 % top-1, 75.4 % top-5 on an AMD EPYC, 42 s); the full
+    # the experiment shortened to 2 epochs at 96 px (48.6 % top-1, 84.1 % top-5 on an AMD EPYC, 33 s); the full
     # recipe's figure is in experiments/table1_dimension_error/README.md
     cfg = compose_config("train", ["experiment=stanford_cars_12", f"paths.root_dir={PROJECT_ROOT}", "trainer.max_epochs=2",
                                    "data.input_size_px=96", "data.eval_resize_px=112"], tmp_path)
     assert Path(cfg.data.root).resolve() == stanford_root.resolve()
     metrics, _ = train(cfg)
-    assert metrics["test/acc"] >= 0.2  # chance: 1/12
-    assert metrics["test/acc_top5"] >= 0.6  # chance: 5/12
+    assert metrics["test/acc"] >= 0.3  # chance: 1/12
+    assert metrics["test/acc_top5"] >= 0.7  # chance: 5/12
     table1 = pd.read_csv(tmp_path / "table1" / "table1.csv")
     assert len(table1) == 12 and table1["images"].sum() == 138
