@@ -206,6 +206,7 @@ class Localizer:
         record = VehicleRecord(track.track_id, frame_index, box, LOCALIZED, "", top1.model_id, top1.make, top1.model,
                                top1.probability, tuple(float(v) for v in spec.dims_mm))
         roi = box.enlarged(self.params.detector_roi_fraction, width_px, height_px)
+        travel = self.travel_heading_deg(track)
         try:
             with self.clock.stage("key points"):
                 silhouette = self.extractor.foreground(roi)
@@ -213,18 +214,16 @@ class Localizer:
                                             self.classifier.metadata.shape_of(spec.model_id), self.detectors,
                                             self.visible_end(track))
         except (NotLocalized, HorizonError) as why:
-            travel = self.travel_heading_deg(track)
-            nearest_known = np.all(np.isfinite(self.states[track.track_id].ground_points_mm[-1]))
-            if not (self.params.fit and self.params.fit_from_travel and travel is not None and nearest_known):
+            nearest_mm = self.states[track.track_id].ground_points_mm[-1]
+            if not (self.params.fit and self.params.fit_from_travel and travel is not None
+                    and np.all(np.isfinite(nearest_mm))):
                 return VehicleRecord(**{**record.__dict__, "status": NOT_LOCALIZED, "reason": str(why)})
-            start = travel_start_box(self.states[track.track_id].ground_points_mm[-1],
-                                     self.calibration.camera.centre_mm[:2], spec.length_mm, spec.width_mm, travel)
+            start = travel_start_box(nearest_mm, self.calibration.camera.centre_mm[:2], spec.length_mm,
+                                     spec.width_mm, travel)
             with self.clock.stage("model fit"):
-                silhouette = self.extractor.foreground(roi)
                 fit = self._fit(start, silhouette.weights, roi, probabilities, travel)
             return VehicleRecord(**{**record.__dict__, "reason": f"fit from the track's travel ({why})",
                                     "estimates": (fit,)})
-        travel = self.travel_heading_deg(track)
         paper_box = facing(placement.box, travel) if travel is not None else placement.box
         estimates = [Estimate("paper", paper_box, placement.kind, self._paper_uncertainty(paper_box, placement.kind,
                                                                                          probabilities, placement.baseline_mm))]
