@@ -12,6 +12,7 @@ import torch
 from lightning.pytorch.callbacks import EMAWeightAveraging
 from lightning.pytorch.utilities import rank_zero_info
 
+from vehloc.config import check_range
 from vehloc.train.precision import device_description
 from vehloc.train.report import write_report
 from vehloc.train.table1 import ClassTable, evaluate_predictions
@@ -70,6 +71,10 @@ class WeightEMA(EMAWeightAveraging):
     Lightning's callback puts the training weights back when any checkpoint is loaded; here that happens only
     when a fit resumes, so the test of the best checkpoint runs on the average it was chosen with.
     """
+
+    def __init__(self, decay: float = 0.99, **kwargs: Any) -> None:
+        check_range("decay", decay, 0.0, 1.0, low_open=True, high_open=True)
+        super().__init__(decay=decay, **kwargs)
 
     def on_load_checkpoint(self, trainer: L.Trainer, pl_module: L.LightningModule, checkpoint: dict[str, Any]) -> None:
         if trainer.state.fn == "fit":
