@@ -22,6 +22,7 @@ from PIL import Image
 from torch.utils.data import DataLoader, Dataset
 from torchvision import transforms as T
 
+from vehloc.atomic import write_text
 from vehloc.hardware import cpu_info
 from vehloc.tables import markdown_table
 from vehloc.train.efficientnet_lite import LITE_MEAN, LITE_STD, EfficientNetLite, lite_weights_path
@@ -119,10 +120,10 @@ def main() -> None:
         {"method": "plain PyTorch loop (Lite0, 224 px, AdamW one-cycle, label smoothing)", "test_top1_pct": plain_top1,
          "wall_minutes": plain_s / 60, "note": f"trained for the workbench's whole time ({epochs} epochs begun)"},
     ])
-    table.to_csv(args.out / "plain_loop_vs_recipe.csv", index=False, float_format="%.2f")
+    write_text(args.out / "plain_loop_vs_recipe.csv", table.to_csv(index=False, float_format="%.2f"))
     text = (f"# Workbench recipe vs a plain loop\n\n{args.root}, {cpu_info().describe()}\n\n{markdown_table(table)}\n\n"
             f"Workbench minus plain loop: {recipe_top1 - plain_top1:+.1f} points top-1.\n")
-    (args.out / "plain_loop_vs_recipe.md").write_text(text)
+    write_text(args.out / "plain_loop_vs_recipe.md", text)
     print(text)
 
 

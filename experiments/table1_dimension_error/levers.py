@@ -3,9 +3,9 @@ lever's overrides, one after another on the same machine; the test split is only
 epoch is chosen on a tenth of train). Writes levers.csv, levers.md and levers.png into --out; levers already in
 its levers.csv are kept, not run again.
 
-    .venv/bin/python experiments/table1_dimension_error/levers.py --out outputs/levers
-    .venv/bin/python experiments/table1_dimension_error/levers.py --out outputs/levers_224 \
-        --base data.input_size_px=224 data.eval_resize_px=240 --only base flip_average ema
+    .venv/bin/python experiments/table1_dimension_error/levers.py --out outputs/levers \
+        --base trainer.max_epochs=8 data.batch_size=32 model.freeze_bn_stats=false
+    .venv/bin/python experiments/table1_dimension_error/levers.py --out outputs/levers_recipe --only base flip_average ema
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from vehloc.atomic import atomic_path, write_text  # noqa: E402
 from vehloc.hardware import cpu_info  # noqa: E402
 from vehloc.tables import markdown_table  # noqa: E402
 
@@ -67,8 +68,8 @@ def write_tables(rows: list[dict], out: Path, header: str) -> None:
     table = pd.DataFrame(rows)
     base = table.loc[table["lever"] == "base", "top1_pct"]
     table["top1_vs_base"] = table["top1_pct"] - (base.iloc[0] if len(base) else float("nan"))
-    table.to_csv(out / "levers.csv", index=False, float_format="%.2f")
-    (out / "levers.md").write_text(f"{header}\n\n{markdown_table(table)}\n")
+    write_text(out / "levers.csv", table.to_csv(index=False, float_format="%.2f"))
+    write_text(out / "levers.md", f"{header}\n\n{markdown_table(table)}\n")
     fig, ax = plt.subplots(figsize=(7, 0.45 * len(table) + 1.2))
     ax.barh(table["lever"], table["top1_pct"], color=["0.5" if n == "base" else "tab:blue" for n in table["lever"]])
     for y, (acc, minutes) in enumerate(zip(table["top1_pct"], table["minutes"])):
@@ -78,7 +79,8 @@ def write_tables(rows: list[dict], out: Path, header: str) -> None:
     ax.set_xlim(0, 110)
     ax.set_title(header, fontsize=9)
     fig.tight_layout()
-    fig.savefig(out / "levers.png", dpi=120)
+    with atomic_path(out / "levers.png", suffix=".png") as temporary:
+        fig.savefig(temporary, dpi=120)
     plt.close(fig)
 
 
