@@ -1,6 +1,6 @@
 """The key-point geometry of the paper's placement against exact ground truth from a pinhole camera: a
-horizontal line at a height mapped to the road and lowered back, O below the plate, the bumper's height from
-a shape."""
+horizontal line at a height mapped to the road and lowered back, O below the plate, the heading from the
+plate's edges, the bumper's height from a shape."""
 
 from __future__ import annotations
 
@@ -9,7 +9,14 @@ import pytest
 
 from vehloc.data.shapes import VehicleShape
 from vehloc.geometry.camera import PinholeCamera
-from vehloc.geometry.keypoints import below_plate_mm, end_bottom_height_mm, lowered_line_mm
+from vehloc.geometry.keypoints import (
+    below_plate_mm,
+    end_bottom_height_mm,
+    lowered_line_mm,
+    plate_length_heading_deg,
+    plate_width_heading_deg,
+)
+from vehloc.geometry.plate import Plate
 
 
 @pytest.fixture(scope="module")
@@ -41,6 +48,38 @@ def test_o_is_the_footprint_point_below_the_plate(camera: PinholeCamera) -> None
     p_mm = camera.road_to_image().inverse(plate_px)[0]
     front_line = _road_line_through(np.array([[-700.0, 9000.0], [1300.0, 9000.0]]))
     np.testing.assert_allclose(below_plate_mm(p_mm, front_line, camera.centre_mm[:2]), [300.0, 9000.0], atol=1e-6)
+
+
+def _plate_seen(camera: PinholeCamera, heading_deg: float) -> Plate:
+    """The image of a 440 x 140 mm plate 300-440 mm above the road on the end of a vehicle whose length axis
+    runs along `heading_deg`, its middle at (300, 9000)."""
+    across = np.array([-np.sin(np.radians(heading_deg)), np.cos(np.radians(heading_deg))])
+    corners_mm = [np.r_[np.array([300.0, 9000.0]) + s * 220.0 * across, z]
+                  for s, z in ((-1, 440.0), (1, 440.0), (1, 300.0), (-1, 300.0))]
+    corners_px = camera.project(np.array(corners_mm))
+
+    def line(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        homogeneous = np.cross([*a, 1.0], [*b, 1.0])
+        return homogeneous / np.hypot(*homogeneous[:2])
+
+    return Plate(corners_px, corners_px.mean(axis=0), line(*corners_px[:2]), line(*corners_px[2:]), 1.0)
+
+
+@pytest.mark.parametrize("heading_deg", [90.0, 60.0, 120.0, 0.0])
+def test_the_plates_edges_give_the_length_axis(camera: PinholeCamera, heading_deg: float) -> None:
+    """The plate's upper and lower edges, imaged at their heights and mapped to the road as if on it, run
+    across the length axis: the heading within 1e-6 deg."""
+    plate = _plate_seen(camera, heading_deg)
+    width_deg = plate_width_heading_deg(plate, camera.road_to_image())
+    assert abs((width_deg - heading_deg - 90.0 + 90.0) % 180.0 - 90.0) < 1e-6
+
+
+def test_the_plates_heading_is_kept_only_when_the_body_agrees(camera: PinholeCamera) -> None:
+    """Within the agreement the plate's heading wins; beyond it the footprint's stands."""
+    plate = _plate_seen(camera, 93.0)
+    road_to_image = camera.road_to_image()
+    assert plate_length_heading_deg(plate, road_to_image, 90.0, 5.0) == pytest.approx(93.0, abs=1e-6)
+    assert plate_length_heading_deg(plate, road_to_image, 80.0, 5.0) == 80.0
 
 
 def test_the_end_bottom_height_is_the_lowest_point_near_that_end() -> None:

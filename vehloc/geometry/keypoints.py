@@ -24,7 +24,8 @@ from vehloc.data.specs import VehicleSpec
 from vehloc.errors import VehlocError
 from vehloc.geometry.footprint import FootprintLines, FootprintParams, detect_footprint
 from vehloc.geometry.placement import VehicleBox, direction_of, heading_of, place_on_end, place_on_side
-from vehloc.geometry.plate import PlateParams, detect_plate
+from vehloc.geometry.plate import Plate, PlateParams, detect_plate
+from vehloc.geometry.projective import ProjectiveTransform
 from vehloc.geometry.roi import Silhouette
 from vehloc.geometry.site_calibration import CameraCalibration
 from vehloc.geometry.wheels import WheelParams, detect_wheels
@@ -98,6 +99,24 @@ def lowered_line_mm(line_mm: np.ndarray, height_mm: float, camera_centre_mm: np.
     return np.array([a, b, k * (at_foot + c) - at_foot])
 
 
+def plate_width_heading_deg(plate: Plate, road_to_image: ProjectiveTransform) -> float:
+    """The road direction (deg, [0, 180)) of the plate's upper and lower edges, their mean: horizontal 3D lines
+    across the vehicle's end, each mapped by the inverse homography to a road line of its own direction."""
+    road_lines = road_to_image.inverse.map_lines(np.stack([plate.upper_line_px, plate.lower_line_px]))
+    doubled = 2.0 * np.arctan2(-road_lines[:, 0], road_lines[:, 1])
+    return float(np.degrees(np.angle(np.exp(1j * doubled).sum())) / 2.0 % 180.0)
+
+
+def plate_length_heading_deg(plate: Plate, road_to_image: ProjectiveTransform, footprint_heading_deg: float,
+                             agreement_deg: float) -> float:
+    """The length axis (deg, [0, 180)) perpendicular to the plate's edges when they agree with the footprint's
+    within `agreement_deg` (a plate seen head-on gives the end's direction more closely than the body's
+    lines), else the footprint's."""
+    heading = (plate_width_heading_deg(plate, road_to_image) + 90.0) % 180.0
+    gap = abs((heading - footprint_heading_deg + 90.0) % 180.0 - 90.0)
+    return heading if gap <= agreement_deg else footprint_heading_deg
+
+
 def below_plate_mm(plate_centre_mm: np.ndarray, front_line_mm: np.ndarray, camera_foot_mm: np.ndarray) -> np.ndarray:
     """O: where the vertical through the plate's middle P meets the front footprint line, on the road. The
     vertical's image maps to the road as the line from the camera's foot through P's road image."""
@@ -115,7 +134,8 @@ def paper_placement(
     """The paper's placement of the predicted model's box (`spec`) from the vehicle in `roi` (its crop and
     silhouette); NotLocalized saying why when the key points cannot be found.
 
-    Plate branch: the front footprint line is the lower edge at the visible end of the silhouette trimmed of
+    Plate branch: the length axis is perpendicular to the plate's edges (when they agree with the body's
+    lines); the front footprint line is the lower edge at the visible end of the silhouette trimmed of
     the shadow below it; that edge is the bumper's, a bumper's height above the road, so it is lowered to the
     road by that height, the predicted model's (`shape`; `visible_end` `front` or `rear` when known). Wheel
     branch: the lines of the whole silhouette, whose dark tyres reach the road."""
@@ -128,7 +148,9 @@ def paper_placement(
         p_mm = road_to_image.inverse.map_visible(plate.centre_px[None], "P")[0]
         front_line = lowered_line_mm(lines.front_line_mm, end_bottom_height_mm(shape, visible_end), calibration.camera.centre_mm)
         o_mm = below_plate_mm(p_mm, front_line, foot)
-        into = inward(lines.length_heading_deg, o_mm, foot)
+        heading = plate_length_heading_deg(plate, road_to_image, lines.length_heading_deg,
+                                           params.plate.heading_agreement_deg)
+        into = inward(heading, o_mm, foot)
         box = place_on_end(o_mm, into, length_mm, width_mm)
         return Placement(box, "plate", o_mm, o_mm + C_DISTANCE_MM * into, length_mm / 2)
     lines = _footprint_lines(roi_bgr, silhouette.mask, offset, calibration, params)

@@ -51,6 +51,7 @@ class PlateParams:
     min_crossings: int
     expected_crossings: int
     min_score: float
+    heading_agreement_deg: float
 
     @classmethod
     def from_config(cls, **overrides: object) -> PlateParams:
