@@ -2,7 +2,8 @@
 
 The plate branch, first: O is the footprint point below the plate's middle P, where the image of the
 vertical through P (towards the camera's vertical vanishing point) meets the front line l_F; C lies along
-the side line's direction, into the vehicle; the box's visible end is stuck to O_W with its long
+the length axis, into the vehicle (perpendicular to the plate's upper and lower edges on the road when they
+agree with the side line's direction, else along it); the box's visible end is stuck to O_W with its long
 centreline along O_W C_W. The wheel branch, when no plate is found: the two near tyres' contacts on the side
 line l_S (the outer faces' contacts with the road, where l_S touches the tyres; taken from the tyres
 themselves, as a shadow beside the car can push the silhouette's l_S outwards; l_S's direction is the one
