@@ -19,7 +19,7 @@ import onnxruntime as ort
 import pandas as pd
 import torch
 
-from vehloc.infer.export import DeployedClassifier
+from vehloc.train.export import DeployedClassifier
 from vehloc.train.module import LitVehicleClassifier, load_classifier, read_checkpoint
 from vehloc.tables import markdown_table
 

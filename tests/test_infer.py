@@ -17,7 +17,7 @@ from onnx import TensorProto, helper
 from vehloc.data.compcars import read_compcars
 from vehloc.data.shapes import SHAPES_FILE, read_shapes
 from vehloc.infer.classifier import VehicleClassifier
-from vehloc.infer.export import ExportError, export_checkpoint, file_sha256
+from vehloc.train.export import ExportError, export_checkpoint, file_sha256
 from vehloc.infer.metadata import ModelFileError
 from vehloc.infer.predict_cli import main as predict_main
 from vehloc.infer.preprocess import ImageInputError

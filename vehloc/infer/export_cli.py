@@ -61,7 +61,7 @@ def _run(cfg: DictConfig) -> None:
 
     from vehloc.data.compcars import read_compcars
     from vehloc.data.shapes import SHAPES_FILE, read_shapes
-    from vehloc.infer.export import export_checkpoint
+    from vehloc.train.export import export_checkpoint
     from vehloc.train.checkpoints import read_checkpoint
 
     read_checkpoint(checkpoint_path)  # a missing or foreign checkpoint is named before the data is read

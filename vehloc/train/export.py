@@ -8,7 +8,7 @@ the onnxruntime classifier for ONNX (max abs difference and identical top-1). It
 temporary name and renamed over the output only then, so a failed or interrupted export never replaces a good
 file.
 
-This module is where deployment meets training: it needs torch, the rest of `vehloc.infer` does not.
+It lives with training because it needs torch; `vehloc.infer`, what it writes for, does not.
 """
 
 from __future__ import annotations
