@@ -150,6 +150,18 @@ def test_a_killed_run_resumes_from_last_with_optimizer_scheduler_and_epoch(tiny_
     assert hashlib.sha256(last.read_bytes()).hexdigest() == digest  # the source checkpoint is untouched
 
 
+def test_last_checkpoint_follows_every_epoch_while_the_best_stays_behind(tiny_root: Path, tmp_path: Path):
+    """The best checkpoint monitors `epoch` with mode min, so epoch 0 stays best; last.ckpt still holds epoch 2."""
+    cfg = compose_config("train", tiny_overrides(
+        tiny_root, "trainer.max_epochs=3", "data.batch_size=3", "test=false",
+        "callbacks.model_checkpoint.monitor=epoch", "callbacks.model_checkpoint.mode=min"), tmp_path)
+    train(cfg)
+    saved = sorted(p.name for p in (tmp_path / "checkpoints").iterdir())
+    assert saved == ["epoch_000.ckpt", "last.ckpt"]
+    last = torch.load(tmp_path / "checkpoints" / "last.ckpt", map_location="cpu", weights_only=True)
+    assert last["epoch"] == 2 and last["global_step"] == 6
+
+
 class RecordTestWeights(L.Callback):
     """Records the weights the test loop runs on."""
 
