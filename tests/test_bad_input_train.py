@@ -209,6 +209,7 @@ EXPORT_CASES = {
     "output_parent_is_a_file": (["output={tmp}/model.onnx/m.onnx"], ["model.onnx is a file, not a folder"]),
     "checkpoint_garbage": (["ckpt_path={garbage}"], ["garbage.ckpt: not a readable checkpoint: the file is corrupt"]),
     "checkpoint_missing_value": (["ckpt_path=???"], ["ckpt_path=PATH is required"]),
+    "checkpoint_absent": (["ckpt_path={tmp}/none.ckpt"], ["none.ckpt: no such checkpoint file"]),
     "data_root_missing": (["data_root={tmp}/none"], ["none: 1 problem(s) in CompCars data"]),
 }
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -17,7 +18,7 @@ from onnx import TensorProto, helper
 from vehloc.data.compcars import read_compcars
 from vehloc.data.shapes import SHAPES_FILE, read_shapes
 from vehloc.infer.classifier import VehicleClassifier
-from vehloc.train.export import ExportError, export_checkpoint, file_sha256
+from vehloc.train.export import ExportError, export_checkpoint, file_sha256, metadata_of
 from vehloc.infer.metadata import ModelFileError
 from vehloc.infer.predict_cli import main as predict_main
 from vehloc.infer.preprocess import ImageInputError
@@ -47,24 +48,32 @@ def trained(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
 
 
 @pytest.fixture(scope="module")
-def exported(trained: tuple[Path, Path], tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, object]:
+def exported(trained: tuple[Path, Path], tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
+    """The checkpoint exported once by `vehloc-export`, the demo set's shapes in its metadata: (file, stdout)."""
     root, checkpoint = trained
-    output = tmp_path_factory.mktemp("onnx") / "model.onnx"
-    return output, export_checkpoint(checkpoint, output, read_compcars(root).test)
+    folder = tmp_path_factory.mktemp("onnx")
+    run = subprocess.run(
+        [sys.executable, "-m", "vehloc.infer.export_cli", f"ckpt_path={checkpoint}", f"output={folder / 'model.onnx'}",
+         f"data_root={root}", "parity_images=24", f"hydra.run.dir={folder / 'run'}"],
+        capture_output=True, text=True,
+    )
+    assert run.returncode == 0, run.stderr
+    return folder / "model.onnx", run.stdout
 
 
-def test_export_passes_parity_on_real_images(exported: tuple[Path, object]) -> None:
+def test_export_passes_parity_on_real_images(exported: tuple[Path, str]) -> None:
     """Tolerance (issue): max |logit diff| <= 1e-4 and the same top-1 on every test image."""
-    output, report = exported
-    assert output.is_file() and report.parity_images == 24
-    assert report.max_abs_logit_diff <= 1e-4 and report.top1_agreement == 1.0
+    output, stdout = exported
+    found = re.search(r"parity on (\d+) test images .*: max \|logit diff\| (\S+), same top-1 on (\d+)%", stdout)
+    assert found, stdout
+    assert int(found[1]) == 24 and float(found[2]) <= 1e-4 and found[3] == "100"
     model = onnx.load(str(output))
     onnx.checker.check_model(model, full_check=True)
     assert max(o.version for o in model.opset_import if o.domain in ("", "ai.onnx")) >= 17
     assert not list(output.parent.glob(".*.tmp"))
 
 
-def test_metadata_round_trip(trained: tuple[Path, Path], exported: tuple[Path, object]) -> None:
+def test_metadata_round_trip(trained: tuple[Path, Path], exported: tuple[Path, str]) -> None:
     _, checkpoint_path = trained
     output, _ = exported
     hp = read_checkpoint(checkpoint_path)["hyper_parameters"]
@@ -81,7 +90,7 @@ def test_metadata_round_trip(trained: tuple[Path, Path], exported: tuple[Path, o
     assert [c.wheelbase_mm for c in meta.classes] == hp["class_wheelbases_mm"] and meta.classes[0].wheelbase_mm == 3210
 
 
-def test_dynamic_batch_and_predictions(trained: tuple[Path, Path], exported: tuple[Path, object]) -> None:
+def test_dynamic_batch_and_predictions(trained: tuple[Path, Path], exported: tuple[Path, str]) -> None:
     root, _ = trained
     classifier = VehicleClassifier.from_onnx(exported[0])
     samples = read_compcars(root).test[:7]
@@ -99,7 +108,7 @@ def test_dynamic_batch_and_predictions(trained: tuple[Path, Path], exported: tup
 
 
 def test_predict_from_the_image_files_gives_table1s_predictions(
-    trained: tuple[Path, Path], exported: tuple[Path, object], tmp_path: Path, capsys
+    trained: tuple[Path, Path], exported: tuple[Path, str], tmp_path: Path, capsys
 ) -> None:
     """Table 1 (the training code's evaluation, PyTorch) and vehloc-predict (ONNX, from the image files and
     their labels) on the test split: the same class for >= 99.5 % of the images, probabilities within 1e-3."""
@@ -115,7 +124,7 @@ def test_predict_from_the_image_files_gives_table1s_predictions(
     assert np.max(np.abs(predicted["probability"].to_numpy() - table1["pred_prob"].to_numpy())) <= 1e-3
 
 
-def test_failed_export_leaves_the_good_file(trained: tuple[Path, Path], exported: tuple[Path, object]) -> None:
+def test_failed_export_leaves_the_good_file(trained: tuple[Path, Path], exported: tuple[Path, str]) -> None:
     root, checkpoint = trained
     output, _ = exported
     before = output.read_bytes()
@@ -142,7 +151,7 @@ def test_model_file_errors(tmp_path: Path) -> None:
         VehicleClassifier.from_onnx(tmp_path / "plain.onnx")
 
 
-def test_image_input_errors(exported: tuple[Path, object], tmp_path: Path) -> None:
+def test_image_input_errors(exported: tuple[Path, str], tmp_path: Path) -> None:
     classifier = VehicleClassifier.from_onnx(exported[0])
     (tmp_path / "notes.txt").write_text("not an image")
     with pytest.raises(ImageInputError, match="notes.txt: not a readable image"):
@@ -157,7 +166,7 @@ def test_image_input_errors(exported: tuple[Path, object], tmp_path: Path) -> No
         classifier.predict([np.zeros((1, 1, 3), np.uint8)])
 
 
-def test_predict_cli(trained: tuple[Path, Path], exported: tuple[Path, object], tmp_path: Path, capsys) -> None:
+def test_predict_cli(trained: tuple[Path, Path], exported: tuple[Path, str], tmp_path: Path, capsys) -> None:
     root, _ = trained
     images = [s.image_path for s in read_compcars(root).test[:2]]
     assert predict_main(["--model", str(exported[0]), *map(str, images), "--top-k", "2", "--csv", str(tmp_path / "p.csv")]) == 0
@@ -167,7 +176,7 @@ def test_predict_cli(trained: tuple[Path, Path], exported: tuple[Path, object], 
 
 
 def test_predict_cli_crops_whole_compcars_images_to_their_labels(
-    trained: tuple[Path, Path], exported: tuple[Path, object], tmp_path: Path, capsys
+    trained: tuple[Path, Path], exported: tuple[Path, str], tmp_path: Path, capsys
 ) -> None:
     root, _ = trained
     samples = read_compcars(root).test[:3]
@@ -196,30 +205,22 @@ def test_predict_cli_crops_whole_compcars_images_to_their_labels(
     assert "not under an image/ folder" in capsys.readouterr().err
 
 
-def test_export_cli(trained: tuple[Path, Path], exported: tuple[Path, object], tmp_path: Path) -> None:
+def test_export_cli_puts_the_shapes_in_and_metadata_without_them_falls_back_to_cuboids(
+    trained: tuple[Path, Path], exported: tuple[Path, str]
+) -> None:
     root, checkpoint = trained
-    run = subprocess.run(
-        [sys.executable, "-m", "vehloc.infer.export_cli", f"ckpt_path={checkpoint}", f"output={tmp_path / 'm.onnx'}",
-         f"data_root={root}", "parity_images=8", f"hydra.run.dir={tmp_path / 'run'}"],
-        capture_output=True, text=True,
-    )
-    assert run.returncode == 0, run.stderr
-    assert "same top-1 on 100%" in run.stdout and (tmp_path / "m.onnx").is_file()
-    metadata = VehicleClassifier.from_onnx(tmp_path / "m.onnx").metadata
+    output, stdout = exported
+    assert f"with the shapes of {root / SHAPES_FILE}" in stdout
+    metadata = VehicleClassifier.from_onnx(output).metadata
     shapes = read_shapes(root / SHAPES_FILE)
     assert sorted(metadata.shapes) == sorted(c.model_id for c in metadata.classes) == sorted(shapes)
     np.testing.assert_allclose(metadata.shape_of(1).points_mm, shapes[1].points_mm, atol=0.05)  # 0.1 mm rounding
-    without = VehicleClassifier.from_onnx(exported[0]).metadata  # exported without shapes: the cuboids
+    without = metadata_of(read_checkpoint(checkpoint), checkpoint)  # no shapes given: the cuboids of the specs
     spec = without.classes[0]
     np.testing.assert_allclose(np.ptp(without.shape_of(spec.model_id).points_mm, axis=0), spec.dims_mm)
-    missing = subprocess.run(
-        [sys.executable, "-m", "vehloc.infer.export_cli", f"ckpt_path={tmp_path / 'none.ckpt'}", f"hydra.run.dir={tmp_path / 'run2'}"],
-        capture_output=True, text=True,
-    )
-    assert missing.returncode == 1 and "vehloc-export: error:" in missing.stderr and "no such checkpoint" in missing.stderr
 
 
-def test_flip_average_is_inside_the_exported_graph(exported: tuple[Path, object], trained: tuple[Path, Path]) -> None:
+def test_flip_average_is_inside_the_exported_graph(exported: tuple[Path, str], trained: tuple[Path, Path]) -> None:
     """The model was trained with flip averaging: the exported graph averages too, so an input and its mirror
     image give the same logits (1e-4; a single view's logits differ by far more)."""
     output, _ = exported

@@ -17,7 +17,7 @@ PROJECT_ROOT = Path(__file__).resolve().parents[1]
 
 @pytest.mark.slow
 def test_stanford_cars_12_fine_tunes_far_above_chance(stanford_root: Path, tmp_path: Path):
-    # the experiment shortened to 2 epochs at 96 px (48.6 % top-1, 84.1 % top-5 on an AMD EPYC, 33 s); the full
+    # the experiment shortened to 2 epochs at 96 px (43.5 % top-1, 81.9 % top-5 on an AMD EPYC, 22 s); the full
     # recipe's figure is in experiments/table1_dimension_error/README.md
     cfg = compose_config("train", ["experiment=stanford_cars_12", f"paths.root_dir={PROJECT_ROOT}", "trainer.max_epochs=2",
                                    "data.input_size_px=96", "data.eval_resize_px=112"], tmp_path)

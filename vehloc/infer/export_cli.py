@@ -61,7 +61,6 @@ def _run(cfg: DictConfig) -> None:
 
     from vehloc.data.compcars import read_compcars
     from vehloc.data.shapes import SHAPES_FILE, read_shapes
-    from vehloc.train.export import export_checkpoint
     from vehloc.train.checkpoints import read_checkpoint
 
     read_checkpoint(checkpoint_path)  # a missing or foreign checkpoint is named before the data is read
@@ -71,6 +70,8 @@ def _run(cfg: DictConfig) -> None:
     step = max(1, len(test) // params.parity_images)
     shapes_path = Path(params.data_root) / SHAPES_FILE
     shapes = read_shapes(shapes_path) if shapes_path.is_file() else None
+    from vehloc.train.export import export_checkpoint  # torch.onnx and Lightning: after every input is checked
+
     report = export_checkpoint(checkpoint_path, output, test[::step][: params.parity_images], params.opset,
                                params.tolerance, shapes)
     print(
