@@ -4,12 +4,16 @@ plate's edges, the bumper's height from a shape."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
+from vehloc.config import ConfigError
 from vehloc.data.shapes import VehicleShape
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.keypoints import (
+    DetectorParams,
     below_plate_mm,
     end_bottom_height_mm,
     lowered_line_mm,
@@ -89,3 +93,11 @@ def test_the_end_bottom_height_is_the_lowest_point_near_that_end() -> None:
     assert end_bottom_height_mm(shape, "front") == 300.0
     assert end_bottom_height_mm(shape, "rear") == 250.0
     assert end_bottom_height_mm(shape, None) == 275.0
+
+
+def test_a_heading_agreement_out_of_range_is_named_before_any_work() -> None:
+    defaults = DetectorParams.from_config()
+    groups = {name: dataclasses.asdict(getattr(defaults, name)) for name in ("footprint", "plate", "wheels")}
+    groups["plate"]["heading_agreement_deg"] = -1.0
+    with pytest.raises(ConfigError, match=r"plate\.heading_agreement_deg: must be in \[0, 90\], got -1.0"):
+        DetectorParams.from_mapping(groups)

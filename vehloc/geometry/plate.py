@@ -25,7 +25,7 @@ import cv2
 import numpy as np
 from scipy.ndimage import map_coordinates
 
-from vehloc.config import params_from_config
+from vehloc.config import check_range, params_from_config
 from vehloc.geometry.silhouette import PIXEL_CORNERS
 
 @dataclass(frozen=True)
@@ -52,6 +52,9 @@ class PlateParams:
     expected_crossings: int
     min_score: float
     heading_agreement_deg: float
+
+    def __post_init__(self) -> None:
+        check_range("heading_agreement_deg", self.heading_agreement_deg, 0.0, 90.0)
 
     @classmethod
     def from_config(cls, **overrides: object) -> PlateParams:
