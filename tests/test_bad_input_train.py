@@ -45,6 +45,7 @@ TRAIN_CASES = {
     "label_smoothing_1": (["model.label_smoothing=1"], ["model.label_smoothing: must be in [0, 1), got 1.0"]),
     "expected_top_k_0": (["model.expected_top_k=0"], ["model.expected_top_k: must be >= 1, got 0"]),
     "layer_decay_0": (["model.layer_decay=0"], ["model.layer_decay: must be in (0, 1], got 0.0"]),
+    "frozen_blocks_negative": (["model.frozen_blocks=-1"], ["model.frozen_blocks: must be >= 0, got -1"]),
     "mixup_negative": (["model.mixup_alpha=-0.2"], ["model.mixup_alpha: must be >= 0, got -0.2"]),
     "ema_decay_1": (["callbacks=ema", "callbacks.ema.decay=1"], ["callbacks.ema: cannot build", "decay: must be in (0, 1), got 1"]),
     "seed_negative": (["seed=-1"], ["seed: expected an integer from 0 to 4294967295 or null, got -1"]),

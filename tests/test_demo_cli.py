@@ -67,6 +67,7 @@ def test_a_failed_step_is_named_and_the_steps_before_it_stay_done(tmp_path: Path
     (["scenes=[table2_nowhere]"], "scenes: expected some of table2_middle_0"),
     (['train_overrides=["trainer.max_epochs=-1"]'], "train_overrides"),
     (['train_overrides=["no_such_key=1"]'], "train_overrides"),
+    (["train_experiment=no_such_recipe"], "train_experiment: "),
 ])
 def test_bad_settings_are_refused_before_any_work(overrides: list[str], message: str, tmp_path: Path) -> None:
     out = tmp_path / "run"

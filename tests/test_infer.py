@@ -37,7 +37,7 @@ def trained(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     cfg = compose_config(
         "train",
         [
-            "experiment=demo", f"data.root={root}", "data.input_size_px=64", "data.eval_resize_px=72",
+            "experiment=demo_googlenet_scratch", f"data.root={root}", "data.input_size_px=64", "data.eval_resize_px=72",
             "data.num_workers=0", "trainer.max_epochs=2", "logger=[]", "callbacks.model_summary.max_depth=0",
             "model.flip_average=true",
         ],

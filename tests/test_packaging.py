@@ -64,7 +64,7 @@ def test_a_non_editable_install_runs_the_hydra_clis_from_elsewhere(tmp_path: Pat
                               capture_output=True, text=True, timeout=600)
 
     job = run("vehloc-train", "--cfg", "job", "experiment=demo")
-    assert job.returncode == 0 and "input_size_px: 80" in job.stdout, job.stderr[-2000:]
+    assert job.returncode == 0 and "input_size_px: 112" in job.stdout, job.stderr[-2000:]
     scene = run("vehloc-scene", "scene=table2_close_0", "out=scene", "scene.empty_frames=2", "scene.drive_frames=2",
                 "scene.stopped_frames=1")
     assert scene.returncode == 0, scene.stderr[-2000:]

@@ -11,6 +11,7 @@ import pytest
 import torch
 import torch.nn.functional as F
 
+from vehloc.errors import VehlocError
 from vehloc.train.checkpoint_io import AtomicCheckpointIO
 from vehloc.train.metrics import DimensionError
 from vehloc.train.module import LitVehicleClassifier
@@ -135,6 +136,30 @@ def test_freeze_bn_stats_keeps_the_starting_statistics_while_training():
         model.model_step((images, targets))[0].backward()
         assert torch.equal(bn.running_mean, before) is freeze
         assert model.net.conv1.bn.weight.grad is not None
+
+
+def test_frozen_blocks_keep_their_weights_and_statistics_while_the_blocks_above_learn():
+    torch.manual_seed(0)
+    model = make_classifier(frozen_blocks=3)  # GoogLeNet's conv1, conv2, conv3
+    assert model.frozen_block_names == ["conv1", "conv2", "conv3"]
+    before = {name: p.detach().clone() for name, p in model.named_parameters()}
+    stats_before = model.net.conv3.bn.running_mean.clone()
+    optimizer = torch.optim.SGD([p for p in model.parameters() if p.requires_grad], lr=0.1)
+    model.train()
+    assert not model.net.conv3.bn.training and model.net.inception3a.branch1.bn.training
+    model.model_step((torch.rand(4, 3, 64, 64), torch.tensor([0, 1, 2, 0])))[0].backward()
+    optimizer.step()
+    changed = {name for name, p in model.named_parameters() if not torch.equal(p, before[name])}
+    assert not any(name.startswith(("net.conv1.", "net.conv2.", "net.conv3.")) for name in changed)
+    assert "net.inception3a.branch1.conv.weight" in changed and "net.fc.weight" in changed
+    assert torch.equal(model.net.conv3.bn.running_mean, stats_before)
+    groups = param_groups(model.named_parameters(), model.head_prefixes, 0.001, 0.01, 1e-4)
+    assert sum(len(g["params"]) for g in groups) == sum(p.requires_grad for p in model.parameters())
+
+
+def test_more_frozen_blocks_than_the_backbone_has_is_refused():
+    with pytest.raises(VehlocError, match="model.frozen_blocks: 15 is more than the backbone's 14 blocks"):
+        make_classifier(frozen_blocks=15)
 
 
 def test_mixup_loss_weighs_both_partners_targets():

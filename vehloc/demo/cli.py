@@ -11,6 +11,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Callable
+from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -23,7 +24,7 @@ from vehloc.atomic import check_output_dir
 from vehloc.config import ConfigError, build_params, check_choice, check_range, config_dir
 from vehloc.demo.report import write_report
 from vehloc.demo.stamps import finished_at, forget, is_done, mark_done, seconds_taken
-from vehloc.demo.table2_cases import TABLE2_SCENES, calibrate_case, case_table, localize_case, render_case, scene_spec
+from vehloc.demo.table2_cases import TABLE2_SCENES, case_table, localize_case, render_and_calibrate_case
 from vehloc.errors import VehlocError, exit_on_error, hydra_main
 from vehloc.geometry.evaluation import write_table2
 from vehloc.hardware import cpu_info
@@ -57,6 +58,7 @@ class DemoParams:
     out: str
     force: bool
     data: DemoDataParams
+    train_experiment: str
     train_overrides: list[str]
     scenes: list[str]
 
@@ -118,7 +120,7 @@ class Demo:
     def train(self) -> list[Path]:
         if self.train_dir.exists():
             shutil.rmtree(self.train_dir)  # an unfinished run of other settings
-        _run_command("train", [*TRAIN, "experiment=demo", f"data.root={self.root}",
+        _run_command("train", [*TRAIN, f"experiment={self.params.train_experiment}", f"data.root={self.root}",
                                f"hydra.run.dir={self.train_dir}", *self.params.train_overrides],
                      self.run_dir / "logs" / "train.log")
         return [self.best_checkpoint(), self.train_dir / "table1" / "report.md"]
@@ -135,10 +137,11 @@ class Demo:
                                 f"hydra.run.dir={self.run_dir / 'export'}"], self.run_dir / "logs" / "export.log")
         return [self.model]
 
-    def scene(self, name: str) -> list[Path]:
-        folder = self.run_dir / "table2" / name
-        render_case(scene_spec(name), folder)
-        return [calibrate_case(folder), folder / "scene" / "video.avi"]
+    def start_scenes(self, pool: ProcessPoolExecutor) -> dict[str, Future]:
+        """Render and calibrate, in `pool`, the scenes whose step is not done."""
+        pending = [n for n in self.params.scenes
+                   if self.params.force or not is_done(self.run_dir, f"scene_{n}", {"scene": n})]
+        return {n: pool.submit(render_and_calibrate_case, n, self.run_dir / "table2" / n) for n in pending}
 
     def localize(self, name: str, classifier: VehicleClassifier) -> list[Path]:
         folder = self.run_dir / "table2" / name
@@ -148,16 +151,23 @@ class Demo:
     def run(self) -> Path:
         d = self.params.data
         self.step("data", {"per_model": d.per_model, "seed": d.seed, "views": d.views}, self.data)
-        self.step("train", {"overrides": self.params.train_overrides, "data": finished_at(self.run_dir, "data")}, self.train)
+        self.step("train", {"experiment": self.params.train_experiment, "overrides": self.params.train_overrides,
+                            "data": finished_at(self.run_dir, "data")}, self.train)
         self.step("export", {"checkpoint": file_sha256(self.best_checkpoint())}, self.export)
-        classifier = VehicleClassifier.from_onnx(self.model)
-        model_sha = file_sha256(self.model)
-        for name in tqdm(self.params.scenes, desc="Table 2 scenes", unit="scene", disable=None):
-            try:
-                self.step(f"scene_{name}", {"scene": name}, lambda: self.scene(name))
-                self.step(f"localize_{name}", {"scene": name, "model": model_sha}, lambda: self.localize(name, classifier))
-            except VehlocError as err:
-                raise StepError(f"step table2 ({name}) failed: {err}") from None
+        pool = ProcessPoolExecutor(self.params.data.workers)
+        try:
+            rendering = self.start_scenes(pool)  # while the scenes before them are localized
+            classifier = VehicleClassifier.from_onnx(self.model)
+            model_sha = file_sha256(self.model)
+            for name in tqdm(self.params.scenes, desc="Table 2 scenes", unit="scene", disable=None):
+                try:
+                    self.step(f"scene_{name}", {"scene": name}, lambda: rendering[name].result())
+                    self.step(f"localize_{name}", {"scene": name, "model": model_sha},
+                              lambda: self.localize(name, classifier))
+                except VehlocError as err:
+                    raise StepError(f"step table2 ({name}) failed: {err}") from None
+        finally:
+            pool.shutdown(cancel_futures=True)
         table = pd.concat([case_table(self.run_dir / "table2" / n) for n in self.params.scenes], ignore_index=True)
         table2_md = self.run_dir / "table2" / "table2.md"
         write_table2(table, table2_md.parent, f"Table 2: {len(self.params.scenes)} scenes, model {self.model.name}")
@@ -166,7 +176,8 @@ class Demo:
         return write_report(self.run_dir, self.train_dir / "table1", table, table2_md, self.step_times(), header)[0]
 
     def step_times(self) -> dict[str, float]:
-        """Seconds per step, the per-scene steps summed into rendering (with calibration) and localization."""
+        """Seconds per step, the per-scene steps summed into rendering (with calibration; the seconds waited for
+        it, as the scenes render in the background) and localization."""
         per_scene = ("scene_", "localize_")
         once = {name: seconds for name, seconds in self.seconds.items() if not name.startswith(per_scene)}
         return once | {"scenes (render + calibrate)": sum(v for k, v in self.seconds.items() if k.startswith("scene_")),
@@ -179,7 +190,12 @@ def check_demo_config(cfg: DictConfig) -> DemoParams:
     params = build_params(DemoParams, {k: v for k, v in values.items() if k != "hydra"}, "")
     root = Path(params.out) / "compcars"
     try:
-        train_cfg = compose("train", overrides=["experiment=demo", f"data.root={root}", *params.train_overrides])
+        compose("train", overrides=[f"experiment={params.train_experiment}", "data.root=unused"])
+    except Exception as exc:  # Hydra's own error for an experiment it does not know
+        raise ConfigError(f"train_experiment: {str(exc).splitlines()[0]}") from None
+    try:
+        train_cfg = compose("train", overrides=[f"experiment={params.train_experiment}", f"data.root={root}",
+                                                *params.train_overrides])
     except Exception as exc:  # Hydra's own errors for a bad override
         raise ConfigError(f"train_overrides: {str(exc).splitlines()[0]}") from None
     try:

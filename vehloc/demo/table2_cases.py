@@ -52,6 +52,13 @@ def calibrate_case(folder: Path) -> Path:
     return folder / "calibration" / "calibration.json"
 
 
+def render_and_calibrate_case(name: str, folder: Path) -> list[Path]:
+    """`folder/scene/` and `folder/calibration/` of the Table 2 scene `name`; the calibration's and the video's
+    paths."""
+    render_case(scene_spec(name), folder)
+    return [calibrate_case(folder), folder / "scene" / "video.avi"]
+
+
 def localize_case(folder: Path, classifier: VehicleClassifier) -> VideoLocalization:
     """`folder/localize/`: the scene's car localized (default settings) and its Table 2 rows."""
     calibration = read_calibration(folder / "calibration" / "calibration.json")

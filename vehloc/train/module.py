@@ -22,7 +22,7 @@ from vehloc.train.checkpoints import (  # noqa: F401 - re-exported: the checkpoi
     read_checkpoint,
 )
 from vehloc.train.metrics import split_metrics
-from vehloc.train.schedules import build_optimizer, build_schedule, param_groups
+from vehloc.train.schedules import build_optimizer, build_schedule, freeze_lowest_blocks, param_groups
 
 
 
@@ -57,6 +57,7 @@ class LitVehicleClassifier(L.LightningModule):
         freeze_bn_stats: bool = False,
         layer_decay: float = 1.0,
         mixup_alpha: float = 0.0,
+        frozen_blocks: int = 0,
     ) -> None:
         super().__init__()
         self.save_hyperparameters(logger=False)
@@ -70,6 +71,7 @@ class LitVehicleClassifier(L.LightningModule):
         built = build_backbone(num_classes=num_classes, **backbone)
         self.net = built.net
         self.head_prefixes = tuple(f"net.{name}" for name in built.head_names)
+        self.frozen_block_names = freeze_lowest_blocks(self.net, frozen_blocks, built.head_names)
         self.normalisation = (tuple(built.mean), tuple(built.std))
         self.register_buffer("mean", torch.tensor(built.mean).view(1, 3, 1, 1), persistent=False)
         self.register_buffer("std", torch.tensor(built.std).view(1, 3, 1, 1), persistent=False)
@@ -119,11 +121,15 @@ class LitVehicleClassifier(L.LightningModule):
         return logits
 
     def train(self, mode: bool = True) -> LitVehicleClassifier:
-        """Training mode; with `freeze_bn_stats`, the batch-norm layers keep normalising with their starting
-        statistics."""
+        """Training mode; the batch-norm layers of the frozen blocks, or all with `freeze_bn_stats`, keep
+        normalising with their starting statistics."""
         super().train(mode)
-        if mode and self.hparams.freeze_bn_stats:
-            for module in self.net.modules():
+        if not mode:
+            return self
+        blocks = [self.net] if self.hparams.freeze_bn_stats else [self.net.get_submodule(n)
+                                                                  for n in self.frozen_block_names]
+        for block in blocks:
+            for module in block.modules():
                 if isinstance(module, nn.modules.batchnorm._BatchNorm):
                     module.eval()
         return self

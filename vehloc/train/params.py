@@ -170,8 +170,10 @@ class ModelParams:
     freeze_bn_stats: bool = False
     layer_decay: float = 1.0
     mixup_alpha: float = 0.0
+    frozen_blocks: int = 0
 
     def __post_init__(self) -> None:
+        check_range("frozen_blocks", self.frozen_blocks, 0)
         check_range("aux_loss_weight", self.aux_loss_weight, 0.0)
         check_range("label_smoothing", self.label_smoothing, 0.0, 1.0, high_open=True)
         check_range("expected_top_k", self.expected_top_k, 1)

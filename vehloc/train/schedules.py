@@ -61,6 +61,25 @@ def block_depths(names: list[str]) -> list[int]:
     return depths
 
 
+def freeze_lowest_blocks(net: nn.Module, count: int, head_names: tuple[str, ...]) -> list[str]:
+    """Stop training the `count` lowest blocks of `net`'s backbone (blocks as in `block_depths`, heads excluded);
+    the names of the frozen blocks. VehlocError when the backbone has fewer blocks."""
+    names = [name for name, _ in net.named_parameters()
+             if not any(name == h or name.startswith(h + ".") for h in head_names)]
+    depths = block_depths([f"net.{name}" for name in names])
+    blocks = max(depths, default=-1) + 1
+    if count > blocks:
+        raise VehlocError(f"model.frozen_blocks: {count} is more than the backbone's {blocks} blocks")
+    params = dict(net.named_parameters())
+    frozen: dict[str, None] = {}
+    for name, depth in zip(names, depths):
+        if depth < count:
+            params[name].requires_grad_(False)
+            parts = name.split(".")
+            frozen[".".join(parts[:2] if len(parts) > 2 and parts[1].isdigit() else parts[:1])] = None
+    return list(frozen)
+
+
 def param_groups(
     named_params: Iterable[tuple[str, nn.Parameter]],
     head_prefixes: tuple[str, ...],
