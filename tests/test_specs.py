@@ -9,7 +9,7 @@ import pytest
 
 from vehloc.data.attributes import ModelAttributes, read_attributes, write_attributes
 from vehloc.data.matfile import read_make_model_names, write_make_model_names
-from vehloc.data.specs import VehicleSpec, read_specs_csv, write_specs_csv
+from vehloc.data.specs import VehicleSpec, display_name, read_specs_csv, write_specs_csv
 from vehloc.errors import DataError
 
 HEADER = "model_id,make,model,length_mm,width_mm,height_mm,wheelbase_mm\n"
@@ -91,3 +91,9 @@ def test_attributes_round_trip_and_errors(tmp_path: Path) -> None:
     with pytest.raises(DataError) as info:
         read_attributes(bad)
     assert info.value.problems == [f"{bad}:2: expected 6 fields model_id maximum_speed displacement door_number seat_number type, got 5"]
+
+
+def test_display_name_says_the_make_once():
+    assert display_name("Honda", "Honda Spirior") == "Honda Spirior"  # the demo catalog's models start with the make
+    assert display_name("BMW", "X5") == "BMW X5"
+    assert display_name("", "Golf") == "Golf"

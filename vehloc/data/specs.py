@@ -18,6 +18,11 @@ COLUMNS = REQUIRED_COLUMNS + ("wheelbase_mm",)
 DIMENSION_NAMES = ("length", "width", "height")
 
 
+def display_name(make: str, model: str) -> str:
+    """`make model`, without repeating a make that the model name already starts with."""
+    return model if model.startswith(make) else f"{make} {model}".strip()
+
+
 @dataclass(frozen=True)
 class VehicleSpec:
     """Published dimensions of one car model, in millimetres."""

@@ -11,6 +11,7 @@ import numpy as np
 import pandas as pd
 
 from vehloc.atomic import write_text
+from vehloc.data.specs import display_name
 from vehloc.geometry.drawing import write_birds_eye
 from vehloc.geometry.localize import LOCALIZED, VehicleRecord
 from vehloc.geometry.placement import VehicleBox
@@ -52,14 +53,14 @@ def table2_rows(truth: SceneTruth, records: Sequence[VehicleRecord]) -> list[dic
         record = match(car, records)
         box = true_box(car)
         base = {
-            "scene": truth.name, "car": index, "true_model": f"{car.make} {car.model}".strip(),
+            "scene": truth.name, "car": index, "true_model": display_name(car.make, car.model),
             "true_x_mm": box.centre_mm[0], "true_y_mm": box.centre_mm[1], "true_heading_deg": box.heading_deg,
         }
         if record is None or record.status != LOCALIZED:
             reason = "no vehicle was tracked to a stop there" if record is None else record.reason
             rows.append(base | {"status": "not localized", "reason": reason})
             continue
-        base |= {"predicted_model": f"{record.make} {record.model}".strip(), "correct": record.model_id == car.model_id,
+        base |= {"predicted_model": display_name(record.make, record.model), "correct": record.model_id == car.model_id,
                  "frame": record.frame, "status": LOCALIZED}
         for estimate in record.estimates:
             error = pose_error(estimate.box, box)

@@ -12,6 +12,7 @@ from torch import nn
 from torchmetrics import MaxMetric, MeanMetric
 
 from vehloc.data.preprocess import Preprocessing
+from vehloc.data.specs import display_name
 from vehloc.errors import VehlocError
 from vehloc.train.backbones import build_backbone
 from vehloc.train.checkpoints import (  # noqa: F401 - re-exported: the checkpoint functions' earlier home
@@ -214,11 +215,6 @@ class LitVehicleClassifier(L.LightningModule):
             return {"optimizer": optimizer}
         scheduler = torch.optim.lr_scheduler.LambdaLR(optimizer, factor)
         return {"optimizer": optimizer, "lr_scheduler": {"scheduler": scheduler, "interval": "step"}}
-
-
-def display_name(make: str, model: str) -> str:
-    """`make model`, without repeating a make that the model name already starts with."""
-    return model if model.startswith(make) else f"{make} {model}".strip()
 
 
 def load_classifier(checkpoint: dict[str, Any], source: str | Path = "checkpoint", **overrides: Any) -> LitVehicleClassifier:
