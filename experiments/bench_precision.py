@@ -1,4 +1,4 @@
-"""Train-step time of the demo model (GoogLeNet, aux heads, the demo_googlenet_scratch experiment's batch and input size) in
+"""Train-step time of GoogLeNet from scratch (aux heads, `experiment=demo_googlenet_scratch`'s batch and input size) in
 fp32 and under CPU bf16 autocast, each with and without channels-last weights, measured side by side in one
 run, with the CPU's model name and flags; and the precision that `trainer.precision=auto` picks here.
 
@@ -50,7 +50,7 @@ VARIANTS = (
 
 
 def build_model(model_cfg, channels_last: bool) -> LitVehicleClassifier:
-    """The demo_googlenet_scratch experiment's network for 12 classes, from scratch (seed 0: every variant starts alike)."""
+    """The experiment's GoogLeNet for 12 classes, from scratch (seed 0: every variant starts alike)."""
     torch.manual_seed(0)
     table = {"class_model_ids": list(range(1, DEMO_CLASSES + 1)), "class_makes": ["make"] * DEMO_CLASSES,
              "class_models": [f"model {i}" for i in range(DEMO_CLASSES)],
@@ -81,7 +81,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--steps", type=int, default=4, help="timed steps per variant and round")
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--warmup", type=int, default=2, help="untimed steps per variant before the rounds")
-    parser.add_argument("overrides", nargs="*", help="Hydra overrides of conf/train.yaml (after experiment=demo_googlenet_scratch)")
+    parser.add_argument("overrides", nargs="*",
+                        help="Hydra overrides of conf/train.yaml (after experiment=demo_googlenet_scratch)")
     args = parser.parse_args(argv)
 
     cfg = compose_config("train", ["experiment=demo_googlenet_scratch", "data.root=unused", *args.overrides], args.out)

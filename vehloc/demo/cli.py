@@ -189,10 +189,8 @@ def check_demo_config(cfg: DictConfig) -> DemoParams:
     values = OmegaConf.to_container(cfg, resolve=True)
     params = build_params(DemoParams, {k: v for k, v in values.items() if k != "hydra"}, "")
     root = Path(params.out) / "compcars"
-    try:
-        compose("train", overrides=[f"experiment={params.train_experiment}", "data.root=unused"])
-    except Exception as exc:  # Hydra's own error for an experiment it does not know
-        raise ConfigError(f"train_experiment: {str(exc).splitlines()[0]}") from None
+    if not (config_dir() / "experiment" / f"{params.train_experiment}.yaml").is_file():
+        raise ConfigError(f"train_experiment: no conf/experiment/{params.train_experiment}.yaml in {config_dir()}")
     try:
         train_cfg = compose("train", overrides=[f"experiment={params.train_experiment}", f"data.root={root}",
                                                 *params.train_overrides])

@@ -49,35 +49,37 @@ class WarmupStep:
         return self.gamma ** ((step - self.warmup_steps) // max(1, self.step_size))
 
 
+def block_name(name: str) -> str:
+    """The block of backbone parameter `name`: a top-level module (`net.conv1`), or an item of a top-level
+    sequence (`net._blocks.3`, `net.layer1.0`)."""
+    parts = name.split(".")
+    return ".".join(parts[:3] if len(parts) > 3 and parts[2].isdigit() else parts[:2])
+
+
+def _under_any(name: str, prefixes: tuple[str, ...]) -> bool:
+    """Whether parameter `name` belongs to one of the modules `prefixes` (dotted names)."""
+    return any(name == p or name.startswith(p + ".") for p in prefixes)
+
+
 def block_depths(names: list[str]) -> list[int]:
-    """Depth of each backbone parameter, as the index of its block in registration order: a block is a
-    top-level module (`net.conv1`), or an item of a top-level sequence (`net._blocks.3`, `net.layer1.0`)."""
+    """Depth of each backbone parameter, as the index of its block (`block_name`) in registration order."""
     blocks: dict[str, int] = {}
-    depths = []
-    for name in names:
-        parts = name.split(".")
-        block = ".".join(parts[:3] if len(parts) > 3 and parts[2].isdigit() else parts[:2])
-        depths.append(blocks.setdefault(block, len(blocks)))
-    return depths
+    return [blocks.setdefault(block_name(name), len(blocks)) for name in names]
 
 
 def freeze_lowest_blocks(net: nn.Module, count: int, head_names: tuple[str, ...]) -> list[str]:
     """Stop training the `count` lowest blocks of `net`'s backbone (blocks as in `block_depths`, heads excluded);
     the names of the frozen blocks. VehlocError when the backbone has fewer blocks."""
-    names = [name for name, _ in net.named_parameters()
-             if not any(name == h or name.startswith(h + ".") for h in head_names)]
-    depths = block_depths([f"net.{name}" for name in names])
-    blocks = max(depths, default=-1) + 1
-    if count > blocks:
-        raise VehlocError(f"model.frozen_blocks: {count} is more than the backbone's {blocks} blocks")
-    params = dict(net.named_parameters())
-    frozen: dict[str, None] = {}
-    for name, depth in zip(names, depths):
-        if depth < count:
-            params[name].requires_grad_(False)
-            parts = name.split(".")
-            frozen[".".join(parts[:2] if len(parts) > 2 and parts[1].isdigit() else parts[:1])] = None
-    return list(frozen)
+    backbone = {f"net.{name}": param for name, param in net.named_parameters()
+                if not _under_any(name, head_names)}
+    blocks = list(dict.fromkeys(block_name(name) for name in backbone))
+    if count > len(blocks):
+        raise VehlocError(f"model.frozen_blocks: {count} is more than the backbone's {len(blocks)} blocks")
+    frozen = blocks[:count]
+    for name, param in backbone.items():
+        if block_name(name) in frozen:
+            param.requires_grad_(False)
+    return [block.removeprefix("net.") for block in frozen]
 
 
 def param_groups(
@@ -91,7 +93,7 @@ def param_groups(
     """Groups by learning rate x decayed (weights) / not decayed (biases and normalisation): the heads at
     `lr_head`, the backbone at `lr_backbone` times `layer_decay` for each block below its top block."""
     trainable = [(name, param) for name, param in named_params if param.requires_grad]
-    is_head = [any(name == p or name.startswith(p + ".") for p in head_prefixes) for name, _ in trainable]
+    is_head = [_under_any(name, head_prefixes) for name, _ in trainable]
     backbone_names = [name for (name, _), head in zip(trainable, is_head) if not head]
     depths = dict(zip(backbone_names, block_depths(backbone_names)))
     top = max(depths.values(), default=0)
