@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from vehloc.geometry.roi import RoiParams, vehicle_silhouette
+from vehloc.geometry.roi import RoiParams, vehicle_silhouette, without_specks
 
 FACE_ROWS, FACE_COLUMNS = (20, 60), (30, 90)  # the body face, half-open rows and columns
 SHADOW_ROWS = (60, 75)                        # the grainy dark band below it
@@ -52,3 +52,26 @@ def test_the_trimmed_mask_ends_at_the_face_bottom(scene: tuple[np.ndarray, np.nd
     lowest = np.array([np.flatnonzero(trimmed[:, c]).max() for c in columns])
     assert np.all(np.abs(lowest - (FACE_ROWS[1] - 1)) <= 3), lowest
     assert silhouette.mask[SHADOW_ROWS[1] - 2].any() and not trimmed[FACE_ROWS[1] + 4:].any()
+
+
+def test_a_smooth_speck_in_the_shadow_does_not_extend_the_trimmed_mask(scene: tuple[np.ndarray, np.ndarray]) -> None:
+    """A flat 7 x 6 px patch in the shadow band (a deep shadow's texture, flattened by compression, can look like
+    this) passes the smoothness test at a few pixels; kept, that speck would carry the trimmed mask down to it."""
+    frame, background = scene
+    frame = frame.copy()
+    frame[66:73, 50:56] = 60
+    speck_kept = vehicle_silhouette(frame, background, RoiParams.from_config(silhouette_min_solid_px=1))
+    assert speck_kept.solid[SHADOW_ROWS[0]:].any()
+    silhouette = vehicle_silhouette(frame, background, RoiParams.from_config())
+    assert not silhouette.solid[SHADOW_ROWS[0]:].any()
+    assert not silhouette.trimmed()[FACE_ROWS[1] + 4:].any()
+
+
+def test_without_specks_drops_only_the_small_components() -> None:
+    mask = np.zeros((20, 20), dtype=bool)
+    mask[2:6, 2:6] = True      # 16 px
+    mask[10:12, 10:13] = True  # 6 px
+    mask[15, 15] = mask[16, 16] = True  # 2 px, 8-connected
+    kept = without_specks(mask, 6)
+    assert kept[2:6, 2:6].all() and kept[10:12, 10:13].all()
+    assert kept.sum() == 22

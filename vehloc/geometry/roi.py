@@ -46,6 +46,7 @@ class RoiParams:
     silhouette_close_px: int
     silhouette_doubt_weight: float
     silhouette_smooth_ratio: float
+    silhouette_min_solid_px: int
 
     @classmethod
     def from_config(cls, **overrides: object) -> RoiParams:
@@ -135,7 +136,8 @@ def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: 
     changed by more than `silhouette_threshold`, except cast shadow (uniformly darker by a ratio within
     `silhouette_shadow_ratio` with the road's texture showing through), closed, holes filled, the largest
     blob kept. Darker pixels are solid where their texture is below `silhouette_smooth_ratio` of the road's
-    there (darkened alike): a smooth body face."""
+    there (darkened alike): a smooth body face, unless they form a speck of fewer than `silhouette_min_solid_px`
+    pixels (a deep shadow's compressed texture can look smooth here and there)."""
     frame = roi_bgr.astype(np.float32)
     background = background_bgr.astype(np.float32)
     changed = np.abs(frame - background).max(axis=2) > params.silhouette_threshold
@@ -157,8 +159,17 @@ def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: 
     darker_than_road = ratio <= high
     window = params.silhouette_shadow_window_px
     smooth = local_std(grey, window) < params.silhouette_smooth_ratio * ratio * texture
+    solid = without_specks(vehicle & (~darker_than_road | smooth), params.silhouette_min_solid_px)
     return Silhouette(vehicle, np.where(vehicle, np.where(darker_than_road, params.silhouette_doubt_weight, 1.0), 0.0),
-                      vehicle & (~darker_than_road | smooth), window // 2)
+                      solid, window // 2)
+
+
+def without_specks(mask: np.ndarray, min_area_px: int) -> np.ndarray:
+    """A bool mask without its 8-connected components of fewer than `min_area_px` pixels."""
+    count, labels, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
+    keep = stats[:, cv2.CC_STAT_AREA] >= min_area_px
+    keep[0] = False
+    return keep[labels]
 
 
 def scaled_box(box: Box, factor: float, width_px: int, height_px: int) -> Box:
