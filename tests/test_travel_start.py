@@ -1,4 +1,5 @@
-"""The model fit's start without key points (`pipeline.fit_from_travel`): the footprint's nearest point is the
+"""The heading of a moving vehicle from its path (`pipeline.heading_from_motion`), and the model fit's start
+without key points (`pipeline.fit_from_travel`): the footprint's nearest point is the
 road point under the box's bottom, the centre lies half the footprint's extent beyond it along the line of
 sight. Exact to 1e-9 mm and deg."""
 
@@ -7,7 +8,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from vehloc.geometry.localize import PipelineParams, travel_start_box
+from vehloc.config import ConfigError
+from vehloc.geometry.localize import PipelineParams, path_heading_deg, travel_start_box
 
 LENGTH_MM, WIDTH_MM = 4800.0, 1850.0
 
@@ -30,3 +32,29 @@ def test_an_oblique_line_of_sight_weighs_length_and_width_by_its_angle():
 def test_the_fit_without_key_points_is_off_unless_asked():
     assert PipelineParams.from_config().fit_from_travel is False
     assert PipelineParams.from_config(fit_from_travel=True).fit_from_travel is True
+
+
+@pytest.mark.parametrize("heading_deg", [90.0, -90.0, 30.0, 180.0])
+def test_a_path_points_from_its_first_point_to_its_last(heading_deg: float):
+    """Points along a straight path, off it across by +-40 mm in the pattern + - - + (uncorrelated with the
+    distance along it): the heading is the path's axis, pointed the way the path went (to 1e-9 deg)."""
+    forward = np.array([np.cos(np.radians(heading_deg)), np.sin(np.radians(heading_deg))])
+    left = np.array([-forward[1], forward[0]])
+    steps = np.arange(12.0)
+    points = np.array([1000.0, 20000.0]) + np.outer(300.0 * steps, forward) + np.outer(40.0 * np.tile([1.0, -1.0, -1.0, 1.0], 3), left)
+    heading = path_heading_deg(points, min_extent_mm=1000.0)
+    assert heading is not None
+    assert abs((heading - heading_deg + 180.0) % 360.0 - 180.0) < 1e-9
+
+
+def test_a_path_too_short_or_unmapped_gives_no_heading():
+    along_y = np.array([[0.0, 0.0], [0.0, 400.0], [0.0, 900.0]])
+    assert path_heading_deg(along_y, min_extent_mm=1000.0) is None
+    assert path_heading_deg(along_y, min_extent_mm=800.0) == pytest.approx(90.0, abs=1e-9)
+    assert path_heading_deg(np.array([[0.0, 0.0], [np.nan, np.inf], [np.nan, 0.0]]), 0.0) is None
+
+
+def test_the_motion_window_is_checked():
+    assert PipelineParams.from_config().heading_from_motion is True
+    with pytest.raises(ConfigError, match="motion_window_frames"):
+        PipelineParams.from_config(motion_window_frames=1)

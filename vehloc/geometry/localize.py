@@ -5,7 +5,8 @@ Per frame: the background model gives vehicle boxes, the tracker follows them an
 each track keeps a few crops for its vote. When a vehicle is to be localized its crops are classified
 together (track voting), the key points (plate, else wheels) place the box of the predicted model's
 dimensions (the paper's method), the predicted model's shape is fitted to its silhouette from there (the
-model fit), and each estimate gets its 1-sigma uncertainty. A vehicle cut by the frame's edge, or with
+model fit; a moving vehicle points where it goes, so with `heading_from_motion` its heading is its recent path's
+and the fit finds only its position), and each estimate gets its 1-sigma uncertainty. A vehicle cut by the frame's edge, or with
 neither plate nor wheels found, is recorded as not localized, with the reason.
 """
 
@@ -16,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from vehloc.config import params_from_config
+from vehloc.config import check_range, params_from_config
 from vehloc.data.boxes import Box
 from vehloc.errors import VehlocError
 from vehloc.geometry.keypoints import DetectorParams, NotLocalized, paper_placement
@@ -53,6 +54,21 @@ def travel_start_box(nearest_mm: np.ndarray, camera_foot_mm: np.ndarray, length_
     return VehicleBox(np.asarray(nearest_mm, dtype=float) + depth_mm * sight, heading_deg, length_mm, width_mm)
 
 
+def path_heading_deg(points_mm: np.ndarray, min_extent_mm: float) -> float | None:
+    """The heading (deg) of a path of road points: their principal direction, pointed from the first towards
+    the last; None when fewer than two are finite or they spread less than `min_extent_mm` along it."""
+    points = np.asarray(points_mm, dtype=float).reshape(-1, 2)
+    points = points[np.all(np.isfinite(points), axis=1)]
+    if len(points) < 2:
+        return None
+    centred = points - points.mean(axis=0)
+    direction = np.linalg.svd(centred, full_matrices=False)[2][0]
+    along = centred @ direction
+    if along.max() - along.min() < min_extent_mm:
+        return None
+    return heading_of(direction if along[-1] >= along[0] else -direction)
+
+
 @dataclass(frozen=True)
 class PipelineParams:
     """Settings of the pipeline itself (`conf/localize/pipeline/default.yaml`)."""
@@ -66,6 +82,11 @@ class PipelineParams:
     uncertainty_min_probability: float
     fit: bool
     fit_from_travel: bool
+    heading_from_motion: bool
+    motion_window_frames: int
+
+    def __post_init__(self) -> None:
+        check_range("motion_window_frames", self.motion_window_frames, 2)
 
     @classmethod
     def from_config(cls, **overrides: object) -> PipelineParams:
@@ -132,6 +153,7 @@ class VehicleRecord:
 class _TrackState:
     votes: TrackVotes
     ground_points_mm: list[np.ndarray] = field(default_factory=list)
+    ground_frames: list[int] = field(default_factory=list)
 
 
 class Localizer:
@@ -174,6 +196,7 @@ class Localizer:
                 state.votes.add(frame_bgr, track.box)
                 bottom = np.array([[track.box.centre_px[0], track.box.y1 - 1.0]])
                 state.ground_points_mm.append(self.calibration.road_to_image.inverse(bottom)[0])
+                state.ground_frames.append(frame_index)
         due = live if self.params.every_frame else stopped
         return [self.localize(track, frame_index, frame_bgr) for track in due]
 
@@ -183,6 +206,17 @@ class Localizer:
         if len(points) < 2 or np.linalg.norm(points[-1] - points[0]) < self.params.min_travel_mm:
             return None
         return heading_of(points[-1] - points[0])
+
+    def motion_heading_deg(self, track: Track, frame_index: int) -> float | None:
+        """With `heading_from_motion`, the heading of a vehicle moving at this frame (not still to the tracker):
+        that of its box bottom's road path over the last `motion_window_frames` frames, when it spans
+        `min_travel_mm`; else None."""
+        if not self.params.heading_from_motion or self.tracker.is_still(track):
+            return None
+        state = self.states[track.track_id]
+        recent = [p for p, f in zip(state.ground_points_mm, state.ground_frames)
+                  if frame_index - self.params.motion_window_frames < f <= frame_index]
+        return path_heading_deg(np.array(recent), self.params.min_travel_mm)
 
     def visible_end(self, track: Track) -> str | None:
         """`front` when the vehicle came towards the camera, `rear` when it went away, None when it did not
@@ -207,6 +241,9 @@ class Localizer:
                                top1.probability, tuple(float(v) for v in spec.dims_mm))
         roi = box.enlarged(self.params.detector_roi_fraction, width_px, height_px)
         travel = self.travel_heading_deg(track)
+        motion = self.motion_heading_deg(track, frame_index)
+        if motion is not None:
+            record = VehicleRecord(**{**record.__dict__, "reason": "heading from the track's path"})
         try:
             with self.clock.stage("key points"):
                 silhouette = self.extractor.foreground(roi)
@@ -219,17 +256,17 @@ class Localizer:
                     and np.all(np.isfinite(nearest_mm))):
                 return VehicleRecord(**{**record.__dict__, "status": NOT_LOCALIZED, "reason": str(why)})
             start = travel_start_box(nearest_mm, self.calibration.camera.centre_mm[:2], spec.length_mm,
-                                     spec.width_mm, travel)
+                                     spec.width_mm, travel if motion is None else motion)
             with self.clock.stage("model fit"):
-                fit = self._fit(start, silhouette.weights, roi, probabilities, travel)
-            return VehicleRecord(**{**record.__dict__, "reason": f"fit from the track's travel ({why})",
-                                    "estimates": (fit,)})
+                fit = self._fit(start, silhouette.weights, roi, probabilities, travel, motion)
+            reason = "; ".join(filter(None, [f"fit from the track's travel ({why})", record.reason]))
+            return VehicleRecord(**{**record.__dict__, "reason": reason, "estimates": (fit,)})
         paper_box = facing(placement.box, travel) if travel is not None else placement.box
         estimates = [Estimate("paper", paper_box, placement.kind, self._paper_uncertainty(paper_box, placement.kind,
                                                                                          probabilities, placement.baseline_mm))]
         if self.params.fit:
             with self.clock.stage("model fit"):
-                estimates.append(self._fit(paper_box, silhouette.weights, roi, probabilities, travel))
+                estimates.append(self._fit(paper_box, silhouette.weights, roi, probabilities, travel, motion))
         return VehicleRecord(**{**record.__dict__, "estimates": tuple(estimates)})
 
     def _calibration_part(self, box: VehicleBox, baseline_mm: float) -> tuple[float, float]:
@@ -241,17 +278,19 @@ class Localizer:
         return Uncertainty.combined(paper_dimension_part(kind, spread), self._calibration_part(box, baseline_mm))
 
     def _fit(self, start: VehicleBox, weights: np.ndarray, roi: Box, probabilities: np.ndarray,
-             travel: float | None) -> Estimate:
-        """The predicted model's shape fitted from the paper's placement; its uncertainty from refitting the
-        other probable models' shapes."""
+             travel: float | None, motion: float | None) -> Estimate:
+        """The predicted model's shape fitted from `start` (the paper's placement), its heading held at
+        `motion` when the vehicle moves; its uncertainty from refitting the other probable models' shapes."""
         camera, metadata = self.calibration.camera, self.classifier.metadata
         order = np.argsort(-probabilities, kind="stable")[: self.params.uncertainty_top_k]
         candidates = [i for i in order if i == order[0] or probabilities[i] >= self.params.uncertainty_min_probability]
         fits = []
         for index in candidates:
             spec = metadata.classes[index]
-            begin = VehicleBox(start.centre_mm, start.heading_deg, spec.length_mm, spec.width_mm)
-            fits.append(fit_model(camera, weights, roi, metadata.shape_of(spec.model_id), begin, self.fit_params))
+            begin = VehicleBox(start.centre_mm, start.heading_deg if motion is None else motion, spec.length_mm,
+                               spec.width_mm)
+            fits.append(fit_model(camera, weights, roi, metadata.shape_of(spec.model_id), begin, self.fit_params,
+                                  fit_heading=motion is None))
         best = fits[0]
         box = facing(best.box, travel) if travel is not None else best.box
         dimensions = fitted_spread([f.box for f in fits], probabilities[candidates]) if len(fits) > 1 else (0.0, 0.0)

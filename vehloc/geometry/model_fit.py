@@ -87,10 +87,12 @@ def fit_model(
     shape: VehicleShape,
     start: VehicleBox,
     params: FitParams | None = None,
+    fit_heading: bool = True,
 ) -> ModelFit:
     """The pose of `shape` (length and width as `start`'s) that best overlaps the vehicle's foreground inside
     `roi`: `weights`, a (roi height, roi width) array in [0, 1] (a bool mask, or how sure each pixel is),
-    starting from `start`."""
+    starting from `start`; with `fit_heading` false only the position moves, the heading stays `start`'s
+    (or its reverse)."""
     params = params or FitParams.from_config()
     ss = params.supersample
     target = cv2.resize(np.asarray(weights, dtype=np.float32), (roi.width_px * ss, roi.height_px * ss),
@@ -99,22 +101,24 @@ def fit_model(
     # Nelder-Mead stops on one tolerance for all coordinates: the heading is scaled to make it the angular one
     per_deg = params.tolerance_mm / params.tolerance_deg
 
-    def box_of(values: np.ndarray) -> VehicleBox:
-        return VehicleBox(values[:2].copy(), float(values[2] / per_deg), start.length_mm, start.width_mm)
+    def box_of(values: np.ndarray, heading_deg: float) -> VehicleBox:
+        turned_deg = float(values[2] / per_deg) if fit_heading else heading_deg
+        return VehicleBox(values[:2].copy(), turned_deg, start.length_mm, start.width_mm)
 
-    def cost(values: np.ndarray) -> float:
-        return 1.0 - overlap(silhouette(camera, shape, box_of(values), roi, ss), target)
+    def cost(values: np.ndarray, heading_deg: float) -> float:
+        return 1.0 - overlap(silhouette(camera, shape, box_of(values, heading_deg), roi, ss), target)
 
     headings = [start.heading_deg] + ([heading_difference_deg(start.heading_deg + 180.0, 0.0)] if params.try_reversed else [])
+    coordinates = 3 if fit_heading else 2
     fits = []
     for heading_deg in headings:
-        x0 = np.array([start.centre_mm[0], start.centre_mm[1], heading_deg * per_deg])
-        steps = np.diag([params.start_step_mm, params.start_step_mm, params.start_step_deg * per_deg])
+        x0 = np.array([start.centre_mm[0], start.centre_mm[1], heading_deg * per_deg][:coordinates])
+        steps = np.diag([params.start_step_mm, params.start_step_mm, params.start_step_deg * per_deg][:coordinates])
         result = minimize(
-            cost, x0, method="Nelder-Mead",
+            cost, x0, args=(heading_deg,), method="Nelder-Mead",
             options={"initial_simplex": np.vstack([x0, x0 + steps]), "xatol": params.tolerance_mm,
                      "fatol": 1e-7, "maxfev": params.max_evaluations},
         )
-        fits.append((1.0 - float(result.fun), box_of(result.x), int(result.nfev)))
+        fits.append((1.0 - float(result.fun), box_of(result.x, heading_deg), int(result.nfev)))
     iou, box, _ = max(fits, key=lambda fit: fit[0])
     return ModelFit(box, iou, sum(fit[2] for fit in fits))

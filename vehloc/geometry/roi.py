@@ -310,12 +310,13 @@ class StoppedVehicleTracker:
             self._next_id += 1
         stopped_now = []
         for track in self.tracks:
-            if track.stopped_at_frame is None and track.frames[-1] == frame_index and self._is_still(track):
+            if track.stopped_at_frame is None and track.frames[-1] == frame_index and self.is_still(track):
                 track.stopped_at_frame = frame_index
                 stopped_now.append(track)
         return stopped_now
 
-    def _is_still(self, track: Track) -> bool:
+    def is_still(self, track: Track) -> bool:
+        """Whether the track's box centre stayed put over its last `stop_frames` frames, seen one after another."""
         n = self.params.stop_frames
         if len(track.boxes) < n or track.frames[-1] - track.frames[-n] != n - 1:
             return False
