@@ -54,7 +54,9 @@ def test_a_path_too_short_or_unmapped_gives_no_heading():
     assert path_heading_deg(np.array([[0.0, 0.0], [np.nan, np.inf], [np.nan, 0.0]]), 0.0) is None
 
 
-def test_the_motion_window_is_checked():
+def test_the_motion_window_and_the_fit_gate_are_checked():
     assert PipelineParams.from_config().heading_from_motion is True
-    with pytest.raises(ConfigError, match="motion_window_frames"):
+    with pytest.raises(ConfigError, match="motion_window_frames: must be >= 2, got 1"):
         PipelineParams.from_config(motion_window_frames=1)
+    with pytest.raises(ConfigError, match=r"min_fit_iou: must be in \[0, 1\], got 1.5"):
+        PipelineParams.from_config(min_fit_iou=1.5)

@@ -84,9 +84,11 @@ class PipelineParams:
     fit_from_travel: bool
     heading_from_motion: bool
     motion_window_frames: int
+    min_fit_iou: float
 
     def __post_init__(self) -> None:
         check_range("motion_window_frames", self.motion_window_frames, 2)
+        check_range("min_fit_iou", self.min_fit_iou, 0.0, 1.0)
 
     @classmethod
     def from_config(cls, **overrides: object) -> PipelineParams:
@@ -259,6 +261,8 @@ class Localizer:
                                      spec.width_mm, travel if motion is None else motion)
             with self.clock.stage("model fit"):
                 fit = self._fit(start, silhouette.weights, roi, probabilities, travel, motion)
+            if fit.iou < self.params.min_fit_iou:
+                return VehicleRecord(**{**record.__dict__, "status": NOT_LOCALIZED, "reason": f"{why}; {poor_fit(fit)}"})
             reason = "; ".join(filter(None, [f"fit from the track's travel ({why})", record.reason]))
             return VehicleRecord(**{**record.__dict__, "reason": reason, "estimates": (fit,)})
         paper_box = facing(placement.box, travel) if travel is not None else placement.box
@@ -266,7 +270,11 @@ class Localizer:
                                                                                          probabilities, placement.baseline_mm))]
         if self.params.fit:
             with self.clock.stage("model fit"):
-                estimates.append(self._fit(paper_box, silhouette.weights, roi, probabilities, travel, motion))
+                fit = self._fit(paper_box, silhouette.weights, roi, probabilities, travel, motion)
+            if fit.iou >= self.params.min_fit_iou:
+                estimates.append(fit)
+            else:
+                record = VehicleRecord(**{**record.__dict__, "reason": "; ".join(filter(None, [record.reason, poor_fit(fit)]))})
         return VehicleRecord(**{**record.__dict__, "estimates": tuple(estimates)})
 
     def _calibration_part(self, box: VehicleBox, baseline_mm: float) -> tuple[float, float]:
@@ -296,6 +304,12 @@ class Localizer:
         dimensions = fitted_spread([f.box for f in fits], probabilities[candidates]) if len(fits) > 1 else (0.0, 0.0)
         uncertainty = Uncertainty.combined(dimensions, self._calibration_part(box, box.length_mm / 2))
         return Estimate("fit", box, None, uncertainty, best.iou)
+
+
+def poor_fit(fit: Estimate) -> str:
+    """Why a model fit is not reported: its silhouette barely overlaps the vehicle's (the blob is not one
+    vehicle, or not the vehicle at all)."""
+    return f"the model fit does not explain the silhouette (overlap {fit.iou:.2f} < pipeline.min_fit_iou)"
 
 
 def localize_frames(localizer: Localizer, frames: Iterable[np.ndarray]) -> Iterator[VehicleRecord]:
