@@ -12,7 +12,9 @@ import signal
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -44,6 +46,15 @@ def run_cli(prog: str, *args: str | Path, cwd: Path | None = None, timeout: floa
     """Run a console script as a user does (its module, in a fresh interpreter)."""
     return subprocess.run(cli_command(prog, *map(str, args)), cwd=cwd, env=cli_env(), capture_output=True, text=True,
                           timeout=timeout)
+
+
+@contextmanager
+def side_by_side(runs: Mapping[str, tuple[str, Sequence[str | Path], Path | None]]) -> Iterator[dict[str, Future]]:
+    """Start console-script runs (`prog`, its arguments, its working folder) side by side, as many at a time as
+    there are CPU cores (a refused run spends its time importing, on one core); yields their futures by name,
+    so that each case's test waits for its own result."""
+    with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
+        yield {name: pool.submit(run_cli, prog, *args, cwd=cwd) for name, (prog, args, cwd) in runs.items()}
 
 
 def assert_one_error(result: subprocess.CompletedProcess, prog: str, *fragments: str, code: int = 1) -> str:

@@ -5,6 +5,8 @@ output that cannot be written is refused before any work, an earlier output left
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from concurrent.futures import Future
 from pathlib import Path
 
 import numpy as np
@@ -14,9 +16,11 @@ from bad_input import (
     read_only_supported,
     run_cli,
     run_cli_read_only,
+    side_by_side,
     snapshot,
     write_handmade_checkpoint,
 )
+from conftest import write_tiny_compcars
 
 from vehloc.config import ConfigError
 from vehloc.train.params import BACKBONE_NAMES, check_eval_config, check_train_config
@@ -60,17 +64,27 @@ TRAIN_CASES = {
 }
 
 
+@pytest.fixture(scope="module")
+def train_refusals(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, tuple[Path, Future]]]:
+    """Every TRAIN_CASES run started at once (side by side), each in its own folder holding `file.txt`."""
+    tiny_root = write_tiny_compcars(tmp_path_factory.mktemp("tiny_root") / "tiny")
+    folders, runs = {}, {}
+    for kind, (overrides, _) in TRAIN_CASES.items():
+        folder = folders[kind] = tmp_path_factory.mktemp(kind)
+        (folder / "file.txt").write_text("keep me")
+        overrides = [o.format(file=folder / "file.txt") for o in overrides]
+        run_dir = [] if any(o.startswith("hydra.run.dir") for o in overrides) else [f"hydra.run.dir={folder / 'run'}"]
+        runs[kind] = ("vehloc-train", [f"data.root={tiny_root}", *TINY, *run_dir, *overrides], folder)
+    with side_by_side(runs) as results:
+        yield {kind: (folders[kind], results[kind]) for kind in TRAIN_CASES}
+
+
 @pytest.mark.parametrize("kind", TRAIN_CASES)
-def test_train_settings_are_checked_before_any_work(kind: str, tiny_root: Path, tmp_path: Path) -> None:
-    overrides, fragments = TRAIN_CASES[kind]
-    file = tmp_path / "file.txt"
-    file.write_text("keep me")
-    overrides = [o.format(file=file) for o in overrides]
-    run_dir = [] if any(o.startswith("hydra.run.dir") for o in overrides) else [f"hydra.run.dir={tmp_path / 'run'}"]
-    result = run_cli("vehloc-train", f"data.root={tiny_root}", *TINY, *run_dir, *overrides, cwd=tmp_path)
-    assert_one_error(result, "vehloc-train", *fragments)
-    assert not list((tmp_path / "run").rglob("*.ckpt")) and not (tmp_path / "run" / "device.json").exists()
-    assert file.read_text() == "keep me"
+def test_train_settings_are_checked_before_any_work(kind: str, train_refusals: dict[str, tuple[Path, Future]]) -> None:
+    folder, result = train_refusals[kind]
+    assert_one_error(result.result(), "vehloc-train", *TRAIN_CASES[kind][1])
+    assert not list((folder / "run").rglob("*.ckpt")) and not (folder / "run" / "device.json").exists()
+    assert (folder / "file.txt").read_text() == "keep me"
 
 
 def test_every_shipped_config_passes_the_checks(tiny_root: Path, tmp_path: Path) -> None:
@@ -128,57 +142,79 @@ CHECKPOINT_MESSAGES = {
 }
 
 
+OTHER_CLASSES = {
+    "one_name_differs": ({"models": ("Alpha", "Beta", "Delta")},
+                         ["the checkpoint's classes are not those of data.root", "the model ids match but 1 of 3 names differ",
+                          "model 25 is 'MakeTwo Delta' in the checkpoint and 'MakeTwo Gamma' in data.root"]),
+    "makes_differ": ({"makes": ("Other", "Other", "Other")}, ["3 of 3 names differ", "model 11 is 'Other Alpha' in the checkpoint"]),
+    "other_ids": ({"model_ids": (11, 12, 26)},
+                  ["checkpoint has 3 classes (model ids 11, 12, 26)", "has 3 (model ids 11, 12, 25)",
+                   "only in the checkpoint: 26, only in data.root", ": 25"]),
+    "other_count": ({"model_ids": (1, 2), "makes": ("A", "B"), "models": ("C", "D")}, ["checkpoint has 2 classes", "has 3"]),
+}
+
+EVAL_OTHER = {
+    "ckpt_is_a_folder": (["ckpt_path={tmp}"], ["no such checkpoint file (it is a folder)"]),
+    "batch_size_0": (["ckpt_path={good}", "data.batch_size=0"], ["data.batch_size: must be >= 1, got 0"]),
+    "root_missing": (["ckpt_path={good}", "data.root={tmp}/none"], ["data.root", "none: no such folder"]),
+    "root_is_a_file": (["ckpt_path={good}", "data.root={good}"], ["good.ckpt: is a file, not a folder"]),
+    "specs_latin1": (["ckpt_path={good}", "data.specs_csv={tmp}/latin1.csv"], ["latin1.csv: not UTF-8 text: byte 0xe9"]),
+}
+
+
+@pytest.fixture(scope="module")
+def eval_refusals(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, tuple[Path, Path, Future]]]:
+    """Every vehloc-eval case below started at once (side by side), each in its own folder: the refusals of a
+    file that is no checkpoint (`file_<kind>`), of a checkpoint of other classes (`classes_<kind>`, with the
+    checkpoint's snapshot before) and of other bad input (`other_<kind>`); the folder, the checkpoint and the
+    run by case."""
+    tiny_root = write_tiny_compcars(tmp_path_factory.mktemp("tiny_root") / "tiny")
+    cases, runs = {}, {}
+    for kind in CHECKPOINT_MESSAGES:
+        folder = tmp_path_factory.mktemp(f"file_{kind}")
+        path = _checkpoint_files(folder)[kind]
+        cases[f"file_{kind}"] = (folder, path)
+        runs[f"file_{kind}"] = ["ckpt_path=" + str(path), f"data.root={tiny_root}"]
+    for kind, (change, _) in OTHER_CLASSES.items():
+        folder = tmp_path_factory.mktemp(f"classes_{kind}")
+        checkpoint = write_handmade_checkpoint(folder / "other.ckpt", **change)
+        cases[f"classes_{kind}"] = (folder, checkpoint)
+        runs[f"classes_{kind}"] = [f"ckpt_path={checkpoint}", f"data.root={tiny_root}"]
+    for kind, (overrides, _) in EVAL_OTHER.items():
+        folder = tmp_path_factory.mktemp(f"other_{kind}")
+        good = write_handmade_checkpoint(folder / "good.ckpt")
+        (folder / "latin1.csv").write_bytes("model_id,make\n11,é\n".encode("latin-1"))
+        overrides = [o.format(tmp=folder, good=good) for o in overrides]
+        root = [] if any(o.startswith("data.root") for o in overrides) else [f"data.root={tiny_root}"]
+        cases[f"other_{kind}"] = (folder, good)
+        runs[f"other_{kind}"] = [*root, *overrides]
+    snapshots = {name: snapshot(path) for name, (_, path) in cases.items()}
+    with side_by_side({name: ("vehloc-eval", [*args, f"hydra.run.dir={cases[name][0] / 'run'}"], None)
+                       for name, args in runs.items()}) as results:
+        yield {name: (*cases[name], snapshots[name], results[name]) for name in runs}
+
+
 @pytest.mark.parametrize("kind", CHECKPOINT_MESSAGES)
-def test_eval_names_a_file_that_is_no_checkpoint(kind: str, tiny_root: Path, tmp_path: Path) -> None:
-    path = _checkpoint_files(tmp_path)[kind]
-    result = run_cli("vehloc-eval", f"ckpt_path={path}", f"data.root={tiny_root}", f"hydra.run.dir={tmp_path / 'run'}")
+def test_eval_names_a_file_that_is_no_checkpoint(kind: str, eval_refusals: dict) -> None:
+    _, path, _, future = eval_refusals[f"file_{kind}"]
+    result = future.result()
     line = assert_one_error(result, "vehloc-eval", f"{path}: {CHECKPOINT_MESSAGES[kind]}")
     assert "weights_only=False" not in line and "weights_only` set to `False" not in result.stderr
 
 
-@pytest.mark.parametrize(
-    ("change", "fragments"),
-    [
-        ({"models": ("Alpha", "Beta", "Delta")},
-         ["the checkpoint's classes are not those of data.root", "the model ids match but 1 of 3 names differ",
-          "model 25 is 'MakeTwo Delta' in the checkpoint and 'MakeTwo Gamma' in data.root"]),
-        ({"makes": ("Other", "Other", "Other")}, ["3 of 3 names differ", "model 11 is 'Other Alpha' in the checkpoint"]),
-        ({"model_ids": (11, 12, 26)},
-         ["checkpoint has 3 classes (model ids 11, 12, 26)", "has 3 (model ids 11, 12, 25)",
-          "only in the checkpoint: 26, only in data.root", ": 25"]),
-        ({"model_ids": (1, 2), "makes": ("A", "B"), "models": ("C", "D")}, ["checkpoint has 2 classes", "has 3"]),
-    ],
-    ids=["one_name_differs", "makes_differ", "other_ids", "other_count"],
-)
-def test_eval_refuses_a_checkpoint_of_other_classes(change: dict, fragments: list[str], tiny_root: Path,
-                                                    tmp_path: Path) -> None:
+@pytest.mark.parametrize("kind", OTHER_CLASSES)
+def test_eval_refuses_a_checkpoint_of_other_classes(kind: str, eval_refusals: dict) -> None:
     """Issue 12, case 1: a checkpoint scored against a data set of other classes numbered the same way wrote a
     plausible Table 1 under the wrong names; the ids and the names must match."""
-    checkpoint = write_handmade_checkpoint(tmp_path / "other.ckpt", **change)
-    before = snapshot(checkpoint)
-    result = run_cli("vehloc-eval", f"ckpt_path={checkpoint}", f"data.root={tiny_root}", f"hydra.run.dir={tmp_path / 'run'}")
-    assert_one_error(result, "vehloc-eval", str(checkpoint), *fragments)
-    assert not (tmp_path / "run" / "table1").exists() and snapshot(checkpoint) == before
+    folder, checkpoint, before, future = eval_refusals[f"classes_{kind}"]
+    assert_one_error(future.result(), "vehloc-eval", str(checkpoint), *OTHER_CLASSES[kind][1])
+    assert not (folder / "run" / "table1").exists() and snapshot(checkpoint) == before
 
 
-@pytest.mark.parametrize(
-    ("overrides", "fragments"),
-    [
-        (["ckpt_path={tmp}"], ["no such checkpoint file (it is a folder)"]),
-        (["ckpt_path={good}", "data.batch_size=0"], ["data.batch_size: must be >= 1, got 0"]),
-        (["ckpt_path={good}", "data.root={tmp}/none"], ["data.root", "none: no such folder"]),
-        (["ckpt_path={good}", "data.root={good}"], ["good.ckpt: is a file, not a folder"]),
-        (["ckpt_path={good}", "data.specs_csv={tmp}/latin1.csv"], ["latin1.csv: not UTF-8 text: byte 0xe9"]),
-    ],
-    ids=["ckpt_is_a_folder", "batch_size_0", "root_missing", "root_is_a_file", "specs_latin1"],
-)
-def test_eval_other_bad_input(overrides: list[str], fragments: list[str], tiny_root: Path, tmp_path: Path) -> None:
-    good = write_handmade_checkpoint(tmp_path / "good.ckpt")
-    (tmp_path / "latin1.csv").write_bytes("model_id,make\n11,é\n".encode("latin-1"))
-    overrides = [o.format(tmp=tmp_path, good=good) for o in overrides]
-    root = [] if any(o.startswith("data.root") for o in overrides) else [f"data.root={tiny_root}"]
-    result = run_cli("vehloc-eval", *root, *overrides, f"hydra.run.dir={tmp_path / 'run'}")
-    assert_one_error(result, "vehloc-eval", *fragments)
+@pytest.mark.parametrize("kind", EVAL_OTHER)
+def test_eval_other_bad_input(kind: str, eval_refusals: dict) -> None:
+    _, _, _, future = eval_refusals[f"other_{kind}"]
+    assert_one_error(future.result(), "vehloc-eval", *EVAL_OTHER[kind][1])
 
 
 def test_train_refuses_to_resume_from_garbage(tiny_root: Path, tmp_path: Path) -> None:
@@ -215,24 +251,38 @@ EXPORT_CASES = {
 }
 
 
+@pytest.fixture(scope="module")
+def export_refusals(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, tuple[Path, dict, Future]]]:
+    """Every EXPORT_CASES run started at once (side by side), each in its own folder holding a good checkpoint,
+    a garbage one and an earlier `model.onnx`, with the folder's snapshot before the run."""
+    tiny_root = write_tiny_compcars(tmp_path_factory.mktemp("tiny_root") / "tiny")
+    folders, before, runs = {}, {}, {}
+    for kind, (overrides, _) in EXPORT_CASES.items():
+        folder = folders[kind] = tmp_path_factory.mktemp(kind)
+        good = write_handmade_checkpoint(folder / "good.ckpt")
+        garbage = folder / "garbage.ckpt"
+        garbage.write_bytes(b"\x80\x04garbage" * 40)
+        earlier = folder / "model.onnx"
+        earlier.write_bytes(b"an earlier model")
+        overrides = [o.format(tmp=folder, garbage=garbage) for o in overrides]
+        given = {o.split("=")[0] for o in overrides}
+        defaults = [f"{k}={v}" for k, v in (("ckpt_path", good), ("output", earlier), ("data_root", tiny_root))
+                    if k not in given]
+        before[kind] = snapshot(folder)
+        runs[kind] = ("vehloc-export", [*defaults, *overrides, f"hydra.run.dir={folder / 'run'}"], None)
+    with side_by_side(runs) as results:
+        yield {kind: (folders[kind], before[kind], results[kind]) for kind in EXPORT_CASES}
+
+
 @pytest.mark.parametrize("kind", EXPORT_CASES)
-def test_export_bad_input_leaves_the_earlier_model(kind: str, tiny_root: Path, tmp_path: Path) -> None:
-    overrides, fragments = EXPORT_CASES[kind]
-    good = write_handmade_checkpoint(tmp_path / "good.ckpt")
-    garbage = tmp_path / "garbage.ckpt"
-    garbage.write_bytes(b"\x80\x04garbage" * 40)
-    earlier = tmp_path / "model.onnx"
-    earlier.write_bytes(b"an earlier model")
-    overrides = [o.format(tmp=tmp_path, garbage=garbage) for o in overrides]
-    given = {o.split("=")[0] for o in overrides}
-    defaults = [f"{k}={v}" for k, v in (("ckpt_path", good), ("output", earlier), ("data_root", tiny_root)) if k not in given]
-    before = snapshot(tmp_path)
-    result = run_cli("vehloc-export", *defaults, *overrides, f"hydra.run.dir={tmp_path / 'run'}")
+def test_export_bad_input_leaves_the_earlier_model(kind: str, export_refusals: dict[str, tuple[Path, dict, Future]]) -> None:
+    folder, before, future = export_refusals[kind]
+    result = future.result()
     if kind == "data_root_missing":  # a data-set error lists its problems under the line
-        assert result.returncode == 1 and result.stderr.startswith(f"vehloc-export: error: {tmp_path}/none: 1 problem(s)")
+        assert result.returncode == 1 and result.stderr.startswith(f"vehloc-export: error: {folder}/none: 1 problem(s)")
     else:
-        assert_one_error(result, "vehloc-export", *fragments)
-    after = snapshot(tmp_path)
+        assert_one_error(result, "vehloc-export", *EXPORT_CASES[kind][1])
+    after = snapshot(folder)
     assert {k: v for k, v in after.items() if not k.startswith("run/")} == before
 
 

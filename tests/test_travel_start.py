@@ -41,7 +41,8 @@ def test_a_path_points_from_its_first_point_to_its_last(heading_deg: float):
     forward = np.array([np.cos(np.radians(heading_deg)), np.sin(np.radians(heading_deg))])
     left = np.array([-forward[1], forward[0]])
     steps = np.arange(12.0)
-    points = np.array([1000.0, 20000.0]) + np.outer(300.0 * steps, forward) + np.outer(40.0 * np.tile([1.0, -1.0, -1.0, 1.0], 3), left)
+    across_mm = 40.0 * np.tile([1.0, -1.0, -1.0, 1.0], 3)
+    points = np.array([1000.0, 20000.0]) + np.outer(300.0 * steps, forward) + np.outer(across_mm, left)
     heading = path_heading_deg(points, min_extent_mm=1000.0)
     assert heading is not None
     assert abs((heading - heading_deg + 180.0) % 360.0 - 180.0) < 1e-9

@@ -5,9 +5,10 @@ Per frame: the background model gives vehicle boxes, the tracker follows them an
 each track keeps a few crops for its vote. When a vehicle is to be localized its crops are classified
 together (track voting), the key points (plate, else wheels) place the box of the predicted model's
 dimensions (the paper's method), the predicted model's shape is fitted to its silhouette from there (the
-model fit; a moving vehicle points where it goes, so with `heading_from_motion` its heading is its recent path's
-and the fit finds only its position), and each estimate gets its 1-sigma uncertainty. A vehicle cut by the frame's edge, or with
-neither plate nor wheels found, is recorded as not localized, with the reason.
+model fit; a moving vehicle points where it goes, so with `heading_from_motion` its heading is its recent
+path's and the fit finds only its position), and each estimate gets its 1-sigma uncertainty. A vehicle cut by
+the frame's edge, with neither plate nor wheels found, or whose fit does not explain its silhouette, is recorded
+as not localized, with the reason.
 """
 
 from __future__ import annotations
@@ -262,7 +263,8 @@ class Localizer:
             with self.clock.stage("model fit"):
                 fit = self._fit(start, silhouette.weights, roi, probabilities, travel, motion)
             if fit.iou < self.params.min_fit_iou:
-                return VehicleRecord(**{**record.__dict__, "status": NOT_LOCALIZED, "reason": f"{why}; {poor_fit(fit)}"})
+                return VehicleRecord(**{**record.__dict__, "status": NOT_LOCALIZED,
+                                        "reason": f"{why}; {poor_fit(fit)}"})
             reason = "; ".join(filter(None, [f"fit from the track's travel ({why})", record.reason]))
             return VehicleRecord(**{**record.__dict__, "reason": reason, "estimates": (fit,)})
         paper_box = facing(placement.box, travel) if travel is not None else placement.box
@@ -274,7 +276,8 @@ class Localizer:
             if fit.iou >= self.params.min_fit_iou:
                 estimates.append(fit)
             else:
-                record = VehicleRecord(**{**record.__dict__, "reason": "; ".join(filter(None, [record.reason, poor_fit(fit)]))})
+                reason = "; ".join(filter(None, [record.reason, poor_fit(fit)]))
+                record = VehicleRecord(**{**record.__dict__, "reason": reason})
         return VehicleRecord(**{**record.__dict__, "estimates": tuple(estimates)})
 
     def _calibration_part(self, box: VehicleBox, baseline_mm: float) -> tuple[float, float]:
