@@ -14,7 +14,7 @@ as not localized, with the reason.
 from __future__ import annotations
 
 from collections.abc import Iterable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -246,7 +246,7 @@ class Localizer:
         travel = self.travel_heading_deg(track)
         motion = self.motion_heading_deg(track, frame_index)
         if motion is not None:
-            record = VehicleRecord(**{**record.__dict__, "reason": "heading from the track's path"})
+            record = replace(record, reason="heading from the track's path")
         try:
             with self.clock.stage("key points"):
                 silhouette = self.extractor.foreground(roi)
@@ -257,16 +257,15 @@ class Localizer:
             nearest_mm = self.states[track.track_id].ground_points_mm[-1]
             if not (self.params.fit and self.params.fit_from_travel and travel is not None
                     and np.all(np.isfinite(nearest_mm))):
-                return VehicleRecord(**{**record.__dict__, "status": NOT_LOCALIZED, "reason": str(why)})
+                return replace(record, status=NOT_LOCALIZED, reason=str(why))
             start = travel_start_box(nearest_mm, self.calibration.camera.centre_mm[:2], spec.length_mm,
                                      spec.width_mm, travel if motion is None else motion)
             with self.clock.stage("model fit"):
                 fit = self._fit(start, silhouette.weights, roi, probabilities, travel, motion)
             if fit.iou < self.params.min_fit_iou:
-                return VehicleRecord(**{**record.__dict__, "status": NOT_LOCALIZED,
-                                        "reason": f"{why}; {poor_fit(fit)}"})
-            reason = "; ".join(filter(None, [f"fit from the track's travel ({why})", record.reason]))
-            return VehicleRecord(**{**record.__dict__, "reason": reason, "estimates": (fit,)})
+                return replace(record, status=NOT_LOCALIZED, reason=joined(str(why), poor_fit(fit)))
+            return replace(record, reason=joined(f"fit from the track's travel ({why})", record.reason),
+                           estimates=(fit,))
         paper_box = facing(placement.box, travel) if travel is not None else placement.box
         estimates = [Estimate("paper", paper_box, placement.kind, self._paper_uncertainty(paper_box, placement.kind,
                                                                                          probabilities, placement.baseline_mm))]
@@ -276,9 +275,8 @@ class Localizer:
             if fit.iou >= self.params.min_fit_iou:
                 estimates.append(fit)
             else:
-                reason = "; ".join(filter(None, [record.reason, poor_fit(fit)]))
-                record = VehicleRecord(**{**record.__dict__, "reason": reason})
-        return VehicleRecord(**{**record.__dict__, "estimates": tuple(estimates)})
+                record = replace(record, reason=joined(record.reason, poor_fit(fit)))
+        return replace(record, estimates=tuple(estimates))
 
     def _calibration_part(self, box: VehicleBox, baseline_mm: float) -> tuple[float, float]:
         mm_per_px = road_mm_per_px(self.calibration.road_to_image, box.centre_mm)
@@ -307,6 +305,11 @@ class Localizer:
         dimensions = fitted_spread([f.box for f in fits], probabilities[candidates]) if len(fits) > 1 else (0.0, 0.0)
         uncertainty = Uncertainty.combined(dimensions, self._calibration_part(box, box.length_mm / 2))
         return Estimate("fit", box, None, uncertainty, best.iou)
+
+
+def joined(*reasons: str) -> str:
+    """The non-empty reasons of a record, in one line."""
+    return "; ".join(filter(None, reasons))
 
 
 def poor_fit(fit: Estimate) -> str:
