@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from vehloc.config import ConfigError
 from vehloc.geometry.roi import RoiParams, vehicle_silhouette, without_specks
 
 FACE_ROWS, FACE_COLUMNS = (20, 60), (30, 90)  # the body face, half-open rows and columns
@@ -75,3 +76,8 @@ def test_without_specks_drops_only_the_small_components() -> None:
     kept = without_specks(mask, 6)
     assert kept[2:6, 2:6].all() and kept[10:12, 10:13].all()
     assert kept.sum() == 22
+
+
+def test_the_speck_size_is_checked():
+    with pytest.raises(ConfigError, match="silhouette_min_solid_px: must be >= 1, got 0"):
+        RoiParams.from_config(silhouette_min_solid_px=0)

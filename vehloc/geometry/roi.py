@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from vehloc.config import params_from_config
+from vehloc.config import check_range, params_from_config
 from vehloc.data.boxes import Box
 
 MOG2_SHADOW_VALUE = 127
@@ -47,6 +47,9 @@ class RoiParams:
     silhouette_doubt_weight: float
     silhouette_smooth_ratio: float
     silhouette_min_solid_px: int
+
+    def __post_init__(self) -> None:
+        check_range("silhouette_min_solid_px", self.silhouette_min_solid_px, 1)
 
     @classmethod
     def from_config(cls, **overrides: object) -> RoiParams:
