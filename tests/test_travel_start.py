@@ -9,7 +9,10 @@ import numpy as np
 import pytest
 
 from vehloc.config import ConfigError
-from vehloc.geometry.localize import PipelineParams, path_heading_deg, travel_start_box
+from vehloc.data.boxes import Box
+from vehloc.geometry.camera import PinholeCamera
+from vehloc.geometry.localize import Localizer, PipelineParams, path_heading_deg, travel_start_box
+from vehloc.geometry.site_calibration import CameraCalibration
 
 LENGTH_MM, WIDTH_MM = 4800.0, 1850.0
 
@@ -61,3 +64,35 @@ def test_the_motion_window_and_the_fit_gate_are_checked():
         PipelineParams.from_config(motion_window_frames=1)
     with pytest.raises(ConfigError, match=r"min_fit_iou: must be in \[0, 1\], got 1.5"):
         PipelineParams.from_config(min_fit_iou=1.5)
+
+
+class _ScriptedExtractor:
+    """Stands in for the background model: the boxes of each frame, in order."""
+
+    def __init__(self, boxes_per_frame: list[list[Box]]) -> None:
+        self.boxes_per_frame = iter(boxes_per_frame)
+
+    def apply(self, frame_bgr: np.ndarray) -> list[Box]:
+        return next(self.boxes_per_frame)
+
+
+def test_the_path_skips_the_frames_whose_edge_cuts_the_vehicle():
+    """A car drives up the image towards the camera; its box's bottom reaches the frame's bottom edge in the last
+    frames, where the box bottom stops moving with the car. Only the frames clear of the edge give road points,
+    and each is exactly the road point under its box's bottom (to 1e-9 mm)."""
+    camera = PinholeCamera.look_at([0.0, -6000.0, 6500.0], [0.0, 9000.0, 0.0], 1000.0, 1280, 720)
+    calibration = CameraCalibration(camera.road_to_image(), (1280, 720), camera, 0.5, "test camera")
+    bottoms_px = [600, 620, 640, 660, 680, 700, 716, 718, 720, 720]
+    boxes = [[Box(600, bottom - 200, 760, bottom)] for bottom in bottoms_px]
+    localizer = Localizer(classifier=None, calibration=calibration)
+    localizer.extractor = _ScriptedExtractor(boxes)
+    frame = np.zeros((720, 1280, 3), np.uint8)
+    for index in range(len(boxes)):
+        localizer.process(index, frame)
+    (state,) = localizer.states.values()
+    margin_px = localizer.params.border_margin_px
+    clear = [i for i, bottom in enumerate(bottoms_px) if bottom < 720 - margin_px]
+    assert state.ground_frames == clear
+    expected_mm = camera.image_to_road(np.array([[boxes[i][0].centre_px[0], bottoms_px[i] - 1.0] for i in clear]))
+    np.testing.assert_allclose(np.array(state.ground_points_mm), expected_mm, atol=1e-9)
+

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -36,10 +37,15 @@ class VehicleShape:
         corners = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (0.0, 1.0)])
         return cls((corners * [length_mm, width_mm, height_mm],))
 
-    @property
+    @cached_property
     def points_mm(self) -> np.ndarray:
         """All the parts' points, (M, 3)."""
         return np.concatenate(self.parts)
+
+    @cached_property
+    def part_starts(self) -> np.ndarray:
+        """Where each part after the first starts in `points_mm` (for `np.split`)."""
+        return np.cumsum([len(part) for part in self.parts])[:-1]
 
     def to_json(self) -> list[list[list[float]]]:
         return [np.round(part, 1).tolist() for part in self.parts]

@@ -154,6 +154,9 @@ class VehicleRecord:
 
 @dataclass
 class _TrackState:
+    """A track's classification votes and the road points under its box's bottom (frames where the frame's
+    edge does not cut it)."""
+
     votes: TrackVotes
     ground_points_mm: list[np.ndarray] = field(default_factory=list)
     ground_frames: list[int] = field(default_factory=list)
@@ -197,6 +200,8 @@ class Localizer:
             for track in live:
                 state = self.states.setdefault(track.track_id, _TrackState(TrackVotes(self.params.vote_frames)))
                 state.votes.add(frame_bgr, track.box)
+                if track.box.touches_border(width_px, height_px, self.params.border_margin_px):
+                    continue  # the frame cuts the vehicle: its box's bottom is not where it stands
                 bottom = np.array([[track.box.centre_px[0], track.box.y1 - 1.0]])
                 state.ground_points_mm.append(self.calibration.road_to_image.inverse(bottom)[0])
                 state.ground_frames.append(frame_index)
@@ -298,7 +303,10 @@ class Localizer:
             spec = metadata.classes[index]
             begin = VehicleBox(start.centre_mm, start.heading_deg if motion is None else motion, spec.length_mm,
                                spec.width_mm)
-            fits.append(fit_model(camera, weights, roi, metadata.shape_of(spec.model_id), begin, self.fit_params,
+            params = self.fit_params
+            if fits:  # the other models start facing the way the predicted one was fitted: front and rear are settled
+                begin, params = facing(begin, fits[0].box.heading_deg), replace(params, try_reversed=False)
+            fits.append(fit_model(camera, weights, roi, metadata.shape_of(spec.model_id), begin, params,
                                   fit_heading=motion is None))
         best = fits[0]
         box = facing(best.box, travel) if travel is not None else best.box

@@ -48,35 +48,33 @@ class ModelFit:
     evaluations: int
 
 
-def shape_points_world(shape: VehicleShape, box: VehicleBox) -> list[np.ndarray]:
-    """The shape's parts placed at the box's centre and heading, world mm (N_i, 3) each."""
+def shape_points_world(shape: VehicleShape, box: VehicleBox) -> np.ndarray:
+    """The shape's points (all parts, as `shape.points_mm`) placed at the box's centre and heading, world mm."""
     c, s = np.cos(np.radians(box.heading_deg)), np.sin(np.radians(box.heading_deg))
     rotation = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-    offset = np.array([box.centre_mm[0], box.centre_mm[1], 0.0])
-    return [part @ rotation.T + offset for part in shape.parts]
+    return shape.points_mm @ rotation.T + [box.centre_mm[0], box.centre_mm[1], 0.0]
 
 
 def silhouette(camera: PinholeCamera, shape: VehicleShape, box: VehicleBox, roi: Box, supersample: int) -> np.ndarray:
     """The shape's silhouette at `box` inside `roi`, as a (roi height, roi width) x `supersample` bool mask."""
     canvas = np.zeros((roi.height_px * supersample, roi.width_px * supersample), np.uint8)
-    parts = shape_points_world(shape, box)
-    pixels = camera.project(np.concatenate(parts))
+    pixels = camera.project(shape_points_world(shape, box))
     if not np.all(np.isfinite(pixels)):
         return canvas > 0  # part of the vehicle behind the camera: no silhouette to compare
-    scaled = ((pixels - [roi.x0, roi.y0] + 0.5) * supersample - 0.5) * (1 << SUBPIXEL_SHIFT)
-    start = 0
-    for part in parts:
-        hull = cv2.convexHull(np.round(scaled[start:start + len(part)]).astype(np.int32))
-        cv2.fillConvexPoly(canvas, hull, 1, cv2.LINE_8, SUBPIXEL_SHIFT)
-        start += len(part)
-    return canvas > 0
+    scaled = np.round(((pixels - [roi.x0, roi.y0] + 0.5) * supersample - 0.5) * (1 << SUBPIXEL_SHIFT)).astype(np.int32)
+    for part in np.split(scaled, shape.part_starts):
+        cv2.fillConvexPoly(canvas, cv2.convexHull(part), 1, cv2.LINE_8, SUBPIXEL_SHIFT)
+    return canvas.view(bool)
 
 
-def overlap(template: np.ndarray, weights: np.ndarray) -> float:
-    """Weighted intersection over union of a bool template and foreground weights in [0, 1]: the weight the
-    template covers over the template's area plus the weight it leaves out (plain IoU for a bool mask)."""
-    covered = float(weights[template].sum())
-    union = np.count_nonzero(template) + float(weights.sum()) - covered
+def overlap(template: np.ndarray, weights: np.ndarray, weights_total: float | None = None) -> float:
+    """Weighted intersection over union of a bool template and float32 foreground weights in [0, 1]: the
+    weight the template covers over the template's area plus the weight it leaves out (plain IoU for a bool
+    mask); `weights_total`, the weights' sum, when the caller has it already."""
+    inside = template.view(np.uint8)
+    covered = float(np.dot(weights.ravel(), inside.ravel().astype(np.float32)))
+    total = float(weights.sum()) if weights_total is None else weights_total
+    union = cv2.countNonZero(inside) + total - covered
     return covered / union if union else 0.0
 
 
@@ -97,6 +95,7 @@ def fit_model(
     ss = params.supersample
     target = cv2.resize(np.asarray(weights, dtype=np.float32), (roi.width_px * ss, roi.height_px * ss),
                         interpolation=cv2.INTER_NEAREST)
+    target_total = float(target.sum())
 
     # Nelder-Mead stops on one tolerance for all coordinates: the heading is scaled to make it the angular one
     per_deg = params.tolerance_mm / params.tolerance_deg
@@ -106,7 +105,7 @@ def fit_model(
         return VehicleBox(values[:2].copy(), turned_deg, start.length_mm, start.width_mm)
 
     def cost(values: np.ndarray, heading_deg: float) -> float:
-        return 1.0 - overlap(silhouette(camera, shape, box_of(values, heading_deg), roi, ss), target)
+        return 1.0 - overlap(silhouette(camera, shape, box_of(values, heading_deg), roi, ss), target, target_total)
 
     headings = [start.heading_deg] + ([heading_difference_deg(start.heading_deg + 180.0, 0.0)] if params.try_reversed else [])
     coordinates = 3 if fit_heading else 2

@@ -103,14 +103,27 @@ def remove_shadows(
     return foreground.astype(np.uint8) * 255
 
 
+def occupied_box(mask: np.ndarray, margin_px: int = 0) -> Box | None:
+    """The box of a mask's non-zero pixels grown by `margin_px` on each side and clipped to the mask (None
+    when the mask is empty): where the mask's operations have anything to do."""
+    x, y, w, h = cv2.boundingRect(mask)
+    if w == 0:
+        return None
+    return Box(x - margin_px, y - margin_px, x + w + margin_px, y + h + margin_px).clipped(mask.shape[1], mask.shape[0])
+
+
 def clean_mask(mask: np.ndarray, params: RoiParams) -> np.ndarray:
-    """Open away speckle, close gaps, and fill holes inside each blob."""
+    """Open away speckle, close gaps, and fill holes inside each blob. The closing and filling run only around
+    what the opening left (far enough around for the result to be the whole frame's)."""
     opened = cv2.morphologyEx(mask, cv2.MORPH_OPEN, np.ones((params.open_kernel_px,) * 2, np.uint8))
+    filled = np.zeros_like(opened)
+    around = occupied_box(opened, params.close_kernel_px)
+    if around is None:
+        return filled
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (params.close_kernel_px,) * 2)
-    closed = cv2.morphologyEx(opened, cv2.MORPH_CLOSE, kernel)
+    closed = cv2.morphologyEx(around.crop(opened), cv2.MORPH_CLOSE, kernel)
     contours, _ = cv2.findContours(closed, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
-    filled = np.zeros_like(closed)
-    cv2.drawContours(filled, contours, -1, 255, cv2.FILLED)
+    cv2.drawContours(around.crop(filled), contours, -1, 255, cv2.FILLED)
     return filled
 
 
@@ -183,9 +196,12 @@ def scaled_box(box: Box, factor: float, width_px: int, height_px: int) -> Box:
 
 def blob_boxes(mask: np.ndarray, min_area_px: int) -> list[Box]:
     """Boxes of the connected components at least `min_area_px` large, largest first."""
-    count, _, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    around = occupied_box(mask)
+    if around is None:
+        return []
+    count, _, stats, _ = cv2.connectedComponentsWithStats(around.crop(mask), connectivity=8)
     boxes = [
-        (area, Box(int(x), int(y), int(x + w), int(y + h)))
+        (area, Box(int(x) + around.x0, int(y) + around.y0, int(x + w) + around.x0, int(y + h) + around.y0))
         for x, y, w, h, area in stats[1:count]
         if area >= min_area_px
     ]
@@ -208,6 +224,7 @@ class VehicleRoiExtractor:
         self.last_mask: np.ndarray | None = None
         self.last_frame: np.ndarray | None = None
         self.background: np.ndarray | None = None
+        self.small_background: np.ndarray | None = None
         self.background_samples = 0
 
     @property
@@ -223,13 +240,17 @@ class VehicleRoiExtractor:
         rate = -1.0 if not self.ready else self.params.learning_rate_after_history
         raw = self.subtractor.apply(small, learningRate=rate)
         self.frames_seen += 1
-        background = self.subtractor.getBackgroundImage() if (raw == MOG2_SHADOW_VALUE).any() else None
-        self.last_mask = clean_mask(remove_shadows(raw, small, background, self.params), self.params)
         self.last_frame = frame_bgr
-        if (self.frames_seen - 1) % self.params.background_every_frames == 0:
-            self._update_background(frame_bgr)
-        if not self.ready:
+        sampled = (self.frames_seen - 1) % self.params.background_every_frames == 0
+        if not self.ready:  # no boxes yet, so no mask either: only the backgrounds learn
+            if sampled:
+                self._update_background(frame_bgr)
             return []
+        if sampled or self.small_background is None:
+            self.small_background = self.subtractor.getBackgroundImage()
+        self.last_mask = clean_mask(remove_shadows(raw, small, self.small_background, self.params), self.params)
+        if sampled:
+            self._update_background(frame_bgr)
         height_px, width_px = small.shape[:2]
         boxes = blob_boxes(self.last_mask, int(self.params.min_area_fraction * width_px * height_px))
         frame_height_px, frame_width_px = frame_bgr.shape[:2]
