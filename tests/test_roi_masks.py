@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from vehloc.data.boxes import Box
-from vehloc.geometry.roi import RoiParams, blob_boxes, clean_mask, occupied_box
+from vehloc.config import ConfigError
+from vehloc.geometry.roi import RoiParams, VehicleRoiExtractor, blob_boxes, clean_mask, occupied_box
 
 PARAMS = RoiParams.from_config()
 
@@ -71,3 +72,27 @@ def test_the_occupied_box_grows_and_stays_in_the_frame() -> None:
     mask[2:10, 150:198] = 1
     assert occupied_box(mask) == Box(150, 2, 198, 10)
     assert occupied_box(mask, 5) == Box(145, 0, 200, 15)
+
+
+def test_a_blob_with_no_change_against_the_full_background_is_a_ghost() -> None:
+    """A car in front of a learnt road is a vehicle box; the same box is dropped once the full-resolution
+    background shows the car too (the background model flags it, the frame does not differ there): a ghost."""
+    params = RoiParams.from_config(history_frames=20)
+    extractor = VehicleRoiExtractor(params)
+    rng = np.random.default_rng(0)
+    road = np.clip(120 + 6 * rng.standard_normal((240, 320, 3)), 0, 255).astype(np.uint8)
+    for _ in range(params.history_frames):
+        assert extractor.apply(road) == []
+    car = road.copy()
+    car[100:160, 120:220] = (40, 40, 200)
+    (box,) = extractor.apply(car)
+    assert box.intersection(Box(120, 100, 220, 160)) == Box(120, 100, 220, 160)
+    assert extractor.changed_fraction(box) > 0.5
+    extractor.background[100:160, 120:220] = (40, 40, 200)
+    assert extractor.changed_fraction(box) == 0.0
+    assert extractor.apply(car) == []
+
+
+def test_the_ghost_share_is_checked() -> None:
+    with pytest.raises(ConfigError, match=r"min_changed_fraction: must be in \[0, 1\], got 1.5"):
+        RoiParams.from_config(min_changed_fraction=1.5)

@@ -47,9 +47,11 @@ class RoiParams:
     silhouette_doubt_weight: float
     silhouette_smooth_ratio: float
     silhouette_min_solid_px: int
+    min_changed_fraction: float
 
     def __post_init__(self) -> None:
         check_range("silhouette_min_solid_px", self.silhouette_min_solid_px, 1)
+        check_range("min_changed_fraction", self.min_changed_fraction, 0.0, 1.0)
 
     @classmethod
     def from_config(cls, **overrides: object) -> RoiParams:
@@ -254,7 +256,16 @@ class VehicleRoiExtractor:
         height_px, width_px = small.shape[:2]
         boxes = blob_boxes(self.last_mask, int(self.params.min_area_fraction * width_px * height_px))
         frame_height_px, frame_width_px = frame_bgr.shape[:2]
-        return [scaled_box(box, 1.0 / scale, frame_width_px, frame_height_px) for box in boxes]
+        boxes = [scaled_box(box, 1.0 / scale, frame_width_px, frame_height_px) for box in boxes]
+        return [box for box in boxes if self.changed_fraction(box) >= self.params.min_changed_fraction]
+
+    def changed_fraction(self, box: Box) -> float:
+        """The share of the last frame's pixels in `box` whose colour differs from the full-resolution
+        background's by more than `silhouette_threshold` (in some channel): about none for a ghost of the
+        background model, where it flags road it has not relearnt."""
+        blue, green, red = cv2.split(cv2.absdiff(box.crop(self.last_frame), box.crop(self.background).astype(np.uint8)))
+        largest = cv2.max(cv2.max(blue, green), red)
+        return np.count_nonzero(largest > self.params.silhouette_threshold) / largest.size
 
     def _update_background(self, frame_bgr: np.ndarray) -> None:
         """The full-resolution background: the running mean of the sampled frames while the history is learnt,
