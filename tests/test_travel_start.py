@@ -95,4 +95,3 @@ def test_the_path_skips_the_frames_whose_edge_cuts_the_vehicle():
     assert state.ground_frames == clear
     expected_mm = camera.image_to_road(np.array([[boxes[i][0].centre_px[0], bottoms_px[i] - 1.0] for i in clear]))
     np.testing.assert_allclose(np.array(state.ground_points_mm), expected_mm, atol=1e-9)
-

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 
@@ -39,11 +40,10 @@ class Box:
 
     @classmethod
     def tight(cls, mask: np.ndarray) -> Box | None:
-        """The smallest box holding every true pixel of a mask; None when there is none."""
-        rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-        if len(rows) == 0:
-            return None
-        return cls(int(cols[0]), int(rows[0]), int(cols[-1]) + 1, int(rows[-1]) + 1)
+        """The smallest box holding every true (non-zero) pixel of a mask; None when there is none."""
+        pixels = mask if mask.dtype == np.uint8 else np.ascontiguousarray(mask, dtype=bool).view(np.uint8)
+        x, y, w, h = cv2.boundingRect(pixels)
+        return cls(x, y, x + w, y + h) if w else None
 
     @property
     def width_px(self) -> int:
@@ -83,6 +83,11 @@ class Box:
         """The box grown by `fraction` of its width and height on each side, clipped to the image."""
         pad_x, pad_y = round(self.width_px * fraction), round(self.height_px * fraction)
         return Box(self.x0 - pad_x, self.y0 - pad_y, self.x1 + pad_x, self.y1 + pad_y).clipped(width_px, height_px)
+
+    def grown(self, margin_px: int, width_px: int, height_px: int) -> Box:
+        """The box grown by `margin_px` on each side, clipped to the image."""
+        return Box(self.x0 - margin_px, self.y0 - margin_px, self.x1 + margin_px, self.y1 + margin_px).clipped(
+            width_px, height_px)
 
     def touches_border(self, width_px: int, height_px: int, margin_px: int = 0) -> bool:
         """Whether the box reaches within `margin_px` of the image's edge (the object may be cut by it)."""

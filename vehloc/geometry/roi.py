@@ -108,10 +108,8 @@ def remove_shadows(
 def occupied_box(mask: np.ndarray, margin_px: int = 0) -> Box | None:
     """The box of a mask's non-zero pixels grown by `margin_px` on each side and clipped to the mask (None
     when the mask is empty): where the mask's operations have anything to do."""
-    x, y, w, h = cv2.boundingRect(mask)
-    if w == 0:
-        return None
-    return Box(x - margin_px, y - margin_px, x + w + margin_px, y + h + margin_px).clipped(mask.shape[1], mask.shape[0])
+    tight = Box.tight(mask)
+    return None if tight is None else tight.grown(margin_px, mask.shape[1], mask.shape[0])
 
 
 def clean_mask(mask: np.ndarray, params: RoiParams) -> np.ndarray:
@@ -244,15 +242,14 @@ class VehicleRoiExtractor:
         self.frames_seen += 1
         self.last_frame = frame_bgr
         sampled = (self.frames_seen - 1) % self.params.background_every_frames == 0
-        if not self.ready:  # no boxes yet, so no mask either: only the backgrounds learn
-            if sampled:
-                self._update_background(frame_bgr)
-            return []
-        if sampled or self.small_background is None:
-            self.small_background = self.subtractor.getBackgroundImage()
-        self.last_mask = clean_mask(remove_shadows(raw, small, self.small_background, self.params), self.params)
+        if self.ready:  # while the history is learnt there are no boxes, so no mask: only the backgrounds learn
+            if sampled or self.small_background is None:
+                self.small_background = self.subtractor.getBackgroundImage()
+            self.last_mask = clean_mask(remove_shadows(raw, small, self.small_background, self.params), self.params)
         if sampled:
             self._update_background(frame_bgr)
+        if not self.ready:
+            return []
         height_px, width_px = small.shape[:2]
         boxes = blob_boxes(self.last_mask, int(self.params.min_area_fraction * width_px * height_px))
         frame_height_px, frame_width_px = frame_bgr.shape[:2]

@@ -244,7 +244,7 @@ def _shadows(
         sigma = max(1.0, blur_frac * max(tight.width_px - 1, tight.height_px - 1))
         ksize = _gaussian_ksize(sigma)
         reach = ksize // 2 + 1
-        region = Box(tight.x0 - reach, tight.y0 - reach, tight.x1 + reach, tight.y1 + reach).clipped(width, height)
+        region = tight.grown(reach, width, height)
         shadow = np.zeros((region.height_px, region.width_px), np.float32)
         shadow[_slices(tight, region)] = filled[_slices(tight, near)]
         shadows.append((region, weight, cv2.GaussianBlur(shadow, (ksize, ksize), sigma)))
