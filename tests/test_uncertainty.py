@@ -38,6 +38,8 @@ def test_calibration_share_and_quadrature():
     assert position_mm == pytest.approx(8.0) and heading_deg == pytest.approx(np.degrees(np.sqrt(2) * 8.0 / 2000.0))
     combined = Uncertainty.combined((30.0, 0.0), (40.0, 0.3))
     assert (combined.position_mm, combined.heading_deg) == (pytest.approx(50.0), pytest.approx(0.3))
+    with_path = Uncertainty.combined((30.0, 0.0), (40.0, 0.3), (0.0, 0.4))
+    assert (with_path.position_mm, with_path.heading_deg) == (pytest.approx(50.0), pytest.approx(0.5))
 
 
 def test_spread_of_fitted_poses():

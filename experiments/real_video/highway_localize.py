@@ -96,9 +96,10 @@ def main() -> None:
     table = checks(records, left_curb_x_mm)
     table.to_csv(args.out / "checks.csv", index=False)
     shown = overlay(list(run.records), localizer, args.out / "overlay.png")
-    # one line per reason: the fit's overlap, which varies per record, is left out of the grouping
-    reasons = records[records.status != LOCALIZED].reason.str.replace(r"overlap [0-9.]+ <", "overlap <",
-                                                                       regex=True).value_counts()
+    # one line per reason: the fit's overlap and the path's sigma, which vary per record, are left out of the grouping
+    reasons = (records[records.status != LOCALIZED].reason
+               .str.replace(r"overlap [0-9.]+ <", "overlap <", regex=True)
+               .str.replace(r"sigma [0-9.]+ deg >", "sigma >", regex=True).value_counts())
     lines = [
         "# Real video: every car localized frame by frame",
         "",

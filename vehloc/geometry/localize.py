@@ -7,8 +7,9 @@ together (track voting), the key points (plate, else wheels) place the box of th
 dimensions (the paper's method), the predicted model's shape is fitted to its silhouette from there (the
 model fit; a moving vehicle points where it goes, so with `heading_from_motion` its heading is its recent
 path's and the fit finds only its position), and each estimate gets its 1-sigma uncertainty. A vehicle cut by
-the frame's edge, with neither plate nor wheels found, or whose fit does not explain its silhouette, is recorded
-as not localized, with the reason.
+the frame's edge, with neither plate nor wheels found, whose fit does not explain its silhouette, or that moves
+along a path too short or too irregular to tell its heading (and shows no key points), is recorded as not
+localized, with the reason.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from vehloc.data.boxes import Box
 from vehloc.errors import VehlocError
 from vehloc.geometry.keypoints import DetectorParams, NotLocalized, paper_placement
 from vehloc.geometry.model_fit import FitParams, fit_model
+from vehloc.geometry.motion import PathHeading, path_heading, recent_path
 from vehloc.geometry.placement import VehicleBox, direction_of, facing, heading_of
 from vehloc.geometry.projective import HorizonError
 from vehloc.geometry.roi import StoppedVehicleTracker, Track, TrackerParams, VehicleRoiExtractor, RoiParams
@@ -55,21 +57,6 @@ def travel_start_box(nearest_mm: np.ndarray, camera_foot_mm: np.ndarray, length_
     return VehicleBox(np.asarray(nearest_mm, dtype=float) + depth_mm * sight, heading_deg, length_mm, width_mm)
 
 
-def path_heading_deg(points_mm: np.ndarray, min_extent_mm: float) -> float | None:
-    """The heading (deg) of a path of road points: their principal direction, pointed from the first towards
-    the last; None when fewer than two are finite or they spread less than `min_extent_mm` along it."""
-    points = np.asarray(points_mm, dtype=float).reshape(-1, 2)
-    points = points[np.all(np.isfinite(points), axis=1)]
-    if len(points) < 2:
-        return None
-    centred = points - points.mean(axis=0)
-    direction = np.linalg.svd(centred, full_matrices=False)[2][0]
-    along = centred @ direction
-    if along.max() - along.min() < min_extent_mm:
-        return None
-    return heading_of(direction if along[-1] >= along[0] else -direction)
-
-
 @dataclass(frozen=True)
 class PipelineParams:
     """Settings of the pipeline itself (`conf/localize/pipeline/default.yaml`)."""
@@ -85,10 +72,16 @@ class PipelineParams:
     fit_from_travel: bool
     heading_from_motion: bool
     motion_window_frames: int
+    motion_max_gap_frames: int
+    motion_jitter_px: float
+    max_motion_sigma_deg: float
     min_fit_iou: float
 
     def __post_init__(self) -> None:
         check_range("motion_window_frames", self.motion_window_frames, 2)
+        check_range("motion_max_gap_frames", self.motion_max_gap_frames, 1)
+        check_range("motion_jitter_px", self.motion_jitter_px, 0.0)
+        check_range("max_motion_sigma_deg", self.max_motion_sigma_deg, 0.0)
         check_range("min_fit_iou", self.min_fit_iou, 0.0, 1.0)
 
     @classmethod
@@ -215,16 +208,20 @@ class Localizer:
             return None
         return heading_of(points[-1] - points[0])
 
-    def motion_heading_deg(self, track: Track, frame_index: int) -> float | None:
-        """With `heading_from_motion`, the heading of a vehicle moving at this frame (not still to the tracker):
-        that of its box bottom's road path over the last `motion_window_frames` frames, when it spans
-        `min_travel_mm`; else None."""
-        if not self.params.heading_from_motion or self.tracker.is_still(track):
-            return None
+    def is_moving(self, track: Track) -> bool:
+        """With `heading_from_motion`, whether the vehicle moves (is not still to the tracker): its heading is
+        then its path's."""
+        return self.params.heading_from_motion and not self.tracker.is_still(track)
+
+    def motion_heading(self, track: Track, frame_index: int) -> PathHeading | None:
+        """The heading of the track's box bottom's road path over the last `motion_window_frames` frames (since
+        its last gap of more than `motion_max_gap_frames`), with its 1-sigma; None when it spans less than
+        `min_travel_mm`."""
         state = self.states[track.track_id]
-        recent = [p for p, f in zip(state.ground_points_mm, state.ground_frames)
-                  if frame_index - self.params.motion_window_frames < f <= frame_index]
-        return path_heading_deg(np.array(recent), self.params.min_travel_mm)
+        path = recent_path(state.ground_points_mm, state.ground_frames, frame_index, self.params.motion_window_frames,
+                           self.params.motion_max_gap_frames)
+        return path_heading(path, self.params.min_travel_mm, self.calibration.road_to_image,
+                            self.params.motion_jitter_px)
 
     def visible_end(self, track: Track) -> str | None:
         """`front` when the vehicle came towards the camera, `rear` when it went away, None when it did not
@@ -249,9 +246,11 @@ class Localizer:
                                top1.probability, tuple(float(v) for v in spec.dims_mm))
         roi = box.enlarged(self.params.detector_roi_fraction, width_px, height_px)
         travel = self.travel_heading_deg(track)
-        motion = self.motion_heading_deg(track, frame_index)
+        path = self.motion_heading(track, frame_index) if self.is_moving(track) else None
+        unclear = self.is_moving(track) and (path is None or path.sigma_deg > self.params.max_motion_sigma_deg)
+        motion = None if unclear else path
         if motion is not None:
-            record = replace(record, reason="heading from the track's path")
+            record = replace(record, reason=f"heading from the track's path (sigma {motion.sigma_deg:.1f} deg)")
         try:
             with self.clock.stage("key points"):
                 silhouette = self.extractor.foreground(roi)
@@ -260,11 +259,13 @@ class Localizer:
                                             self.visible_end(track))
         except (NotLocalized, HorizonError) as why:
             nearest_mm = self.states[track.track_id].ground_points_mm[-1]
+            if unclear:
+                return replace(record, status=NOT_LOCALIZED, reason=joined(str(why), unclear_path(path, self.params)))
             if not (self.params.fit and self.params.fit_from_travel and travel is not None
                     and np.all(np.isfinite(nearest_mm))):
                 return replace(record, status=NOT_LOCALIZED, reason=str(why))
             start = travel_start_box(nearest_mm, self.calibration.camera.centre_mm[:2], spec.length_mm,
-                                     spec.width_mm, travel if motion is None else motion)
+                                     spec.width_mm, travel if motion is None else motion.heading_deg)
             with self.clock.stage("model fit"):
                 fit = self._fit(start, silhouette.weights, roi, probabilities, travel, motion)
             if fit.iou < self.params.min_fit_iou:
@@ -292,17 +293,18 @@ class Localizer:
         return Uncertainty.combined(paper_dimension_part(kind, spread), self._calibration_part(box, baseline_mm))
 
     def _fit(self, start: VehicleBox, weights: np.ndarray, roi: Box, probabilities: np.ndarray,
-             travel: float | None, motion: float | None) -> Estimate:
-        """The predicted model's shape fitted from `start` (the paper's placement), its heading held at
-        `motion` when the vehicle moves; its uncertainty from refitting the other probable models' shapes."""
+             travel: float | None, motion: PathHeading | None) -> Estimate:
+        """The predicted model's shape fitted from `start` (the paper's placement), its heading held at the
+        path's when the vehicle moves; its uncertainty from refitting the other probable models' shapes, and
+        the path heading's own."""
         camera, metadata = self.calibration.camera, self.classifier.metadata
         order = np.argsort(-probabilities, kind="stable")[: self.params.uncertainty_top_k]
         candidates = [i for i in order if i == order[0] or probabilities[i] >= self.params.uncertainty_min_probability]
         fits = []
         for index in candidates:
             spec = metadata.classes[index]
-            begin = VehicleBox(start.centre_mm, start.heading_deg if motion is None else motion, spec.length_mm,
-                               spec.width_mm)
+            begin = VehicleBox(start.centre_mm, start.heading_deg if motion is None else motion.heading_deg,
+                               spec.length_mm, spec.width_mm)
             params = self.fit_params
             if fits:  # the other models start facing the way the predicted one was fitted: front and rear are settled
                 begin, params = facing(begin, fits[0].box.heading_deg), replace(params, try_reversed=False)
@@ -311,13 +313,26 @@ class Localizer:
         best = fits[0]
         box = facing(best.box, travel) if travel is not None else best.box
         dimensions = fitted_spread([f.box for f in fits], probabilities[candidates]) if len(fits) > 1 else (0.0, 0.0)
-        uncertainty = Uncertainty.combined(dimensions, self._calibration_part(box, box.length_mm / 2))
+        if motion is None:
+            uncertainty = Uncertainty.combined(dimensions, self._calibration_part(box, box.length_mm / 2))
+        else:  # the heading is the path's: the calibration turns it over the path's extent, not over the car
+            uncertainty = Uncertainty.combined(dimensions, self._calibration_part(box, motion.extent_mm),
+                                               (0.0, motion.sigma_deg))
         return Estimate("fit", box, None, uncertainty, best.iou)
 
 
 def joined(*reasons: str) -> str:
     """The non-empty reasons of a record, in one line."""
     return "; ".join(filter(None, reasons))
+
+
+def unclear_path(path: PathHeading | None, params: PipelineParams) -> str:
+    """Why a moving vehicle without key points has no heading: its recent path is too short or too irregular."""
+    if path is None:
+        return (f"it moves, but its path over the last {params.motion_window_frames} frames spans less than "
+                f"{params.min_travel_mm:.0f} mm (pipeline.min_travel_mm)")
+    return (f"it moves, but its path's heading is uncertain (sigma {path.sigma_deg:.1f} deg > "
+            f"pipeline.max_motion_sigma_deg)")
 
 
 def poor_fit(fit: Estimate) -> str:

@@ -113,6 +113,15 @@ class ProjectiveTransform:
             )
         return mapped.points
 
+    def jacobian(self, points: np.ndarray) -> np.ndarray:
+        """(N, 2, 2) derivatives of the mapped points by the source points, d(x', y') / d(x, y), at (N, 2)
+        points (NaN where a point has no image)."""
+        mapped = self.homogeneous(points)
+        w = mapped[:, 2]
+        image = mapped[:, :2] / w[:, None]
+        rows = self.front_sign * (self.matrix[:2, :2][None] - image[:, :, None] * self.matrix[2, :2][None, None])
+        return rows / w[:, None, None]
+
     def is_visible(self, points: np.ndarray) -> np.ndarray:
         """(N,) mask of the points on the visible side."""
         return self.map(points).visible

@@ -1,6 +1,7 @@
-"""1-sigma uncertainty of a localization, from the two sources the system knows of: the classifier's doubt
-about the model (the spread of the top-k models' dimensions, or of the poses fitted with their shapes) and
-the calibration (its reprojection error, turned into millimetres on the road where the vehicle stands)."""
+"""1-sigma uncertainty of a localization, from the sources the system knows of: the classifier's doubt about
+the model (the spread of the top-k models' dimensions, or of the poses fitted with their shapes), the
+calibration (its reprojection error, turned into millimetres on the road where the vehicle stands) and, for a
+heading taken from a moving vehicle's path, that path's (`vehloc.geometry.motion`)."""
 
 from __future__ import annotations
 
@@ -15,18 +16,21 @@ from vehloc.geometry.projective import ProjectiveTransform
 
 @dataclass(frozen=True)
 class Uncertainty:
-    """1-sigma of the centre (mm, radial) and the heading (deg), and the two parts they combine."""
+    """1-sigma of the centre (mm, radial) and the heading (deg), and the parts they combine."""
 
     position_mm: float
     heading_deg: float
     dimensions: tuple[float, float]
     calibration: tuple[float, float]
+    motion: tuple[float, float] = (0.0, 0.0)
 
     @classmethod
-    def combined(cls, dimensions: tuple[float, float], calibration: tuple[float, float]) -> Uncertainty:
-        """The two independent parts (position mm, heading deg) added in quadrature."""
-        return cls(float(np.hypot(dimensions[0], calibration[0])), float(np.hypot(dimensions[1], calibration[1])),
-                   dimensions, calibration)
+    def combined(cls, dimensions: tuple[float, float], calibration: tuple[float, float],
+                 motion: tuple[float, float] = (0.0, 0.0)) -> Uncertainty:
+        """The independent parts (position mm, heading deg) added in quadrature; `motion` is the share of a heading
+        taken from the vehicle's path."""
+        return cls(float(np.hypot.reduce([dimensions[0], calibration[0], motion[0]])),
+                   float(np.hypot.reduce([dimensions[1], calibration[1], motion[1]])), dimensions, calibration, motion)
 
 
 def dimension_spread_mm(probabilities: np.ndarray, class_dims_mm: np.ndarray, top_k: int) -> np.ndarray:
@@ -43,13 +47,8 @@ def dimension_spread_mm(probabilities: np.ndarray, class_dims_mm: np.ndarray, to
 def road_mm_per_px(road_to_image: ProjectiveTransform, point_mm: np.ndarray) -> float:
     """How many millimetres on the road one pixel spans at a road point, in its worst direction (the largest
     singular value of the image-to-road Jacobian there)."""
-    image_to_road = road_to_image.inverse
-    centre_px = road_to_image.map_visible(np.asarray(point_mm, dtype=float).reshape(1, 2), "road point")[0]
-    step = 0.5
-    jacobian = np.column_stack([
-        (image_to_road(centre_px + offset)[0] - image_to_road(centre_px - offset)[0]) / (2 * step)
-        for offset in (np.array([step, 0.0]), np.array([0.0, step]))
-    ])
+    centre_px = road_to_image.map_visible(np.asarray(point_mm, dtype=float).reshape(1, 2), "road point")
+    jacobian = road_to_image.inverse.jacobian(centre_px)[0]
     return float(np.linalg.svd(jacobian, compute_uv=False)[0])
 
 
