@@ -55,7 +55,7 @@ def checks(records: pd.DataFrame, left_curb_x_mm: float) -> pd.DataFrame:
 
 
 def overlay(records: list[VehicleRecord], localizer: Localizer, path: Path) -> list[int]:
-    """The frames with the most localized vehicles, their boxes drawn in (paper green, fit orange); the frames."""
+    """The frames with the most localized vehicles, their boxes drawn in (paper green, fit blue); the frames."""
     by_frame: dict[int, list[VehicleRecord]] = {}
     for record in records:
         if record.status == LOCALIZED:
@@ -113,7 +113,7 @@ def main() -> None:
         "",
         *(f"- {count} x {reason}" for reason, count in reasons.items()),
         "",
-        f"![overlay](overlay.png) frames {', '.join(map(str, shown))}: paper's method green, model fit orange.",
+        f"![overlay](overlay.png) frames {', '.join(map(str, shown))}: paper's method green, model fit blue.",
     ]
     (args.out / "report.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
