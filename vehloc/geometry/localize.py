@@ -246,8 +246,9 @@ class Localizer:
                                top1.probability, tuple(float(v) for v in spec.dims_mm))
         roi = box.enlarged(self.params.detector_roi_fraction, width_px, height_px)
         travel = self.travel_heading_deg(track)
-        path = self.motion_heading(track, frame_index) if self.is_moving(track) else None
-        unclear = self.is_moving(track) and (path is None or path.sigma_deg > self.params.max_motion_sigma_deg)
+        moving = self.is_moving(track)
+        path = self.motion_heading(track, frame_index) if moving else None
+        unclear = moving and (path is None or path.sigma_deg > self.params.max_motion_sigma_deg)
         motion = None if unclear else path
         if motion is not None:
             record = replace(record, reason=f"heading from the track's path (sigma {motion.sigma_deg:.1f} deg)")
