@@ -26,8 +26,14 @@ ROAD_TO_IMAGE = CAMERA.road_to_image()
 
 
 def path_heading_deg(points_mm: np.ndarray, min_extent_mm: float) -> float | None:
-    heading = path_heading(points_mm, min_extent_mm, ROAD_TO_IMAGE, jitter_px=1.0)
+    heading = path_heading(points_mm, np.arange(len(points_mm)), min_extent_mm, ROAD_TO_IMAGE, jitter_px=1.0)
     return None if heading is None else heading.heading_deg
+
+
+def seen_with_jitter(points_mm: np.ndarray, jitter_px: float, rng: np.random.Generator) -> np.ndarray:
+    """The road points under box bottoms seen `jitter_px` (1-sigma, in x and in y) off their true image."""
+    image_px = ROAD_TO_IMAGE(points_mm)
+    return ROAD_TO_IMAGE.inverse(image_px + rng.normal(0.0, jitter_px, image_px.shape))
 
 
 @pytest.mark.parametrize(("heading_deg", "depth_mm"), [(90.0, LENGTH_MM / 2), (-90.0, LENGTH_MM / 2),
@@ -72,31 +78,42 @@ def test_a_path_too_short_or_unmapped_gives_no_heading():
 
 
 def test_the_heading_sigma_is_the_spread_of_headings_from_noisy_paths():
-    """Paths of 2 to 30 points a metre apart, 40 m ahead, with Gaussian noise across them: the sigma of a
-    single path (from its residuals, at least the one of 1 px jitter) matches the spread of the headings of
-    1,000 such paths within 15 % (residuals of 60 mm, well above a pixel's 11-mm share) or stays the pixel
-    floor (residuals of 1 mm)."""
+    """Cars 40 m ahead driving along the road at a metre a frame, their box bottoms seen with Gaussian jitter in
+    the image: the sigma of a single path (from its residuals about a constant-speed motion, at least 1 px)
+    matches the spread of the headings of 1,000 such paths within 15 % (jitter of 3 px, above the floor) or stays
+    the 1-px floor (jitter of 0.01 px; two points, which have no residual)."""
     rng = np.random.default_rng(0)
-    for count, noise_mm, expected in ((30, 60.0, "residuals"), (6, 60.0, "residuals"), (2, 1.0, "floor")):
-        along = np.arange(count) * 1000.0
-        headings, sigmas = [], []
-        for _ in range(1000):
-            points = np.column_stack([rng.normal(0.0, noise_mm, count), 40000.0 + along])
-            path = path_heading(points, 500.0, ROAD_TO_IMAGE, jitter_px=1.0)
-            headings.append(path.heading_deg)
-            sigmas.append(path.sigma_deg)
+    for count, jitter_px, expected in ((30, 3.0, "residuals"), (6, 3.0, "residuals"), (2, 0.01, "floor")):
+        truth = np.column_stack([np.zeros(count), 40000.0 + 1000.0 * np.arange(count)])
+        paths = [path_heading(seen_with_jitter(truth, jitter_px, rng), np.arange(count), 500.0, ROAD_TO_IMAGE, 1.0)
+                 for _ in range(1000)]
+        headings, sigmas = [p.heading_deg for p in paths], [p.sigma_deg for p in paths]
         if expected == "residuals":
             assert np.median(sigmas) == pytest.approx(np.std(headings), rel=0.15)
+            assert np.median([p.jitter_px for p in paths]) == pytest.approx(jitter_px, rel=0.15)
         else:
-            floor = path_heading(np.column_stack([np.zeros(count), 40000.0 + along]), 500.0, ROAD_TO_IMAGE, 1.0)
-            assert floor.sigma_deg > 5 * np.std(headings) and np.allclose(sigmas, floor.sigma_deg, rtol=0.01)
+            floor = path_heading(truth, np.arange(count), 500.0, ROAD_TO_IMAGE, 1.0)
+            assert floor.sigma_deg > 5 * np.std(headings) and np.allclose(sigmas, floor.sigma_deg, rtol=0.02)
+
+
+def test_a_box_bottom_that_jumps_along_the_path_makes_its_heading_uncertain():
+    """Three road points exactly on one line 40 m ahead, seen at frames 0, 2 and 3 and spanning 2.9 m: at constant
+    speed (0, 1.93 and 2.9 m) their heading has the 1-px floor's sigma, inside the 2-deg gate; when the box's
+    bottom jumps 2.5 m in the last frame (0, 0.4 and 2.9 m: the blob lost its lower part) the same line is far
+    less certain, past the gate. Both point along the road (to 1e-9 deg)."""
+    frames = np.array([0.0, 2.0, 3.0])
+    steady, jumping = (path_heading(np.column_stack([np.zeros(3), 40000.0 + np.array(along_mm)]), frames, 500.0,
+                                    ROAD_TO_IMAGE, 1.0) for along_mm in ([0.0, 2900.0 * 2 / 3, 2900.0], [0.0, 400.0, 2900.0]))
+    assert steady.jitter_px == 1.0 and jumping.jitter_px > 2.5
+    assert steady.heading_deg == pytest.approx(90.0, abs=1e-9) and jumping.heading_deg == pytest.approx(90.0, abs=1e-9)
+    assert jumping.sigma_deg > PipelineParams.from_config().max_motion_sigma_deg > steady.sigma_deg
 
 
 def test_a_pixel_of_jitter_turns_a_far_path_more_than_a_near_one():
     """The floor of 1 px: across a path along the road, a pixel spans the road's width per pixel there (read
     from the camera's Jacobian, to 1e-6); a far path is the more uncertain one."""
-    near = path_heading(np.array([[0.0, 9000.0], [0.0, 11000.0]]), 500.0, ROAD_TO_IMAGE, jitter_px=1.0)
-    far = path_heading(np.array([[0.0, 39000.0], [0.0, 41000.0]]), 500.0, ROAD_TO_IMAGE, jitter_px=1.0)
+    near = path_heading(np.array([[0.0, 9000.0], [0.0, 11000.0]]), [0, 1], 500.0, ROAD_TO_IMAGE, jitter_px=1.0)
+    far = path_heading(np.array([[0.0, 39000.0], [0.0, 41000.0]]), [0, 1], 500.0, ROAD_TO_IMAGE, jitter_px=1.0)
     for path, y_mm in ((near, 10000.0), (far, 40000.0)):
         jacobian = ROAD_TO_IMAGE.inverse.jacobian(ROAD_TO_IMAGE(np.array([[0.0, y_mm - 1000.0], [0.0, y_mm + 1000.0]])))
         across_mm2 = np.mean(jacobian[:, 0, 0] ** 2 + jacobian[:, 0, 1] ** 2)
@@ -107,12 +124,11 @@ def test_a_pixel_of_jitter_turns_a_far_path_more_than_a_near_one():
 def test_the_path_starts_after_its_last_long_gap():
     points = [np.array([0.0, float(f)]) for f in range(10)]
     frames = [0, 1, 2, 9, 10, 11, 13, 14, 20, 21]
-    np.testing.assert_array_equal(recent_path(points, frames, 21, window_frames=30, max_gap_frames=5)[:, 1],
-                                  [8.0, 9.0])
-    np.testing.assert_array_equal(recent_path(points, frames, 14, window_frames=30, max_gap_frames=7)[:, 1],
-                                  [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0])
-    np.testing.assert_array_equal(recent_path(points, frames, 14, window_frames=5, max_gap_frames=5)[:, 1],
-                                  [4.0, 5.0, 6.0, 7.0])
+    for frame_index, window_frames, max_gap_frames, expected in ((21, 30, 5, [8, 9]), (14, 30, 7, range(8)),
+                                                                 (14, 5, 5, [4, 5, 6, 7])):
+        path_mm, path_frames = recent_path(points, frames, frame_index, window_frames, max_gap_frames)
+        np.testing.assert_array_equal(path_mm[:, 1], list(expected))
+        np.testing.assert_array_equal(path_frames, [frames[i] for i in expected])
 
 
 def test_the_motion_window_and_the_fit_gate_are_checked():

@@ -218,9 +218,9 @@ class Localizer:
         its last gap of more than `motion_max_gap_frames`), with its 1-sigma; None when it spans less than
         `min_travel_mm`."""
         state = self.states[track.track_id]
-        path = recent_path(state.ground_points_mm, state.ground_frames, frame_index, self.params.motion_window_frames,
-                           self.params.motion_max_gap_frames)
-        return path_heading(path, self.params.min_travel_mm, self.calibration.road_to_image,
+        points, frames = recent_path(state.ground_points_mm, state.ground_frames, frame_index,
+                                     self.params.motion_window_frames, self.params.motion_max_gap_frames)
+        return path_heading(points, frames, self.params.min_travel_mm, self.calibration.road_to_image,
                             self.params.motion_jitter_px)
 
     def visible_end(self, track: Track) -> str | None:
