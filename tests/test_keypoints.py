@@ -16,11 +16,14 @@ from vehloc.geometry.keypoints import (
     DetectorParams,
     below_plate_mm,
     end_bottom_height_mm,
+    implausible_plate,
     lowered_line_mm,
     plate_length_heading_deg,
     plate_width_heading_deg,
+    plate_widths_mm,
 )
-from vehloc.geometry.plate import Plate
+from vehloc.geometry.plate import Plate, PlateParams
+from vehloc.geometry.site_calibration import CameraCalibration
 
 
 @pytest.fixture(scope="module")
@@ -54,12 +57,13 @@ def test_o_is_the_footprint_point_below_the_plate(camera: PinholeCamera) -> None
     np.testing.assert_allclose(below_plate_mm(p_mm, front_line, camera.centre_mm[:2]), [300.0, 9000.0], atol=1e-6)
 
 
-def _plate_seen(camera: PinholeCamera, heading_deg: float) -> Plate:
-    """The image of a 440 x 140 mm plate 300-440 mm above the road on the end of a vehicle whose length axis
-    runs along `heading_deg`, its middle at (300, 9000)."""
+def _plate_seen(camera: PinholeCamera, heading_deg: float, width_mm: float = 440.0, bottom_mm: float = 300.0,
+                middle_mm: tuple[float, float] = (300.0, 9000.0)) -> Plate:
+    """The image of a `width_mm` x 140 mm plate `bottom_mm` above the road (440 mm wide, 300-440 mm high unless
+    told) on the end of a vehicle whose length axis runs along `heading_deg`, its middle at `middle_mm`."""
     across = np.array([-np.sin(np.radians(heading_deg)), np.cos(np.radians(heading_deg))])
-    corners_mm = [np.r_[np.array([300.0, 9000.0]) + s * 220.0 * across, z]
-                  for s, z in ((-1, 440.0), (1, 440.0), (1, 300.0), (-1, 300.0))]
+    corners_mm = [np.r_[np.array(middle_mm) + s * width_mm / 2 * across, z]
+                  for s, z in ((-1, bottom_mm + 140.0), (1, bottom_mm + 140.0), (1, bottom_mm), (-1, bottom_mm))]
     corners_px = camera.project(np.array(corners_mm))
 
     def line(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -86,6 +90,37 @@ def test_the_plates_heading_is_kept_only_when_the_body_agrees(camera: PinholeCam
     assert plate_length_heading_deg(plate, road_to_image, 80.0, 5.0) == 80.0
 
 
+@pytest.mark.parametrize(("heading_deg", "bottom_mm"), [(90.0, 300.0), (60.0, 0.0), (120.0, 1000.0)])
+def test_a_plates_lower_edge_on_the_road_bounds_its_width(camera: PinholeCamera, heading_deg: float,
+                                                          bottom_mm: float) -> None:
+    """A 440-mm plate whose lower edge is `bottom_mm` high, from a camera 6.5 m high: its lower edge mapped to the
+    road is 440 H / (H - h) long, the widest it can be; a plate mounted 1.2 m high would be H - 1.2 m over H of
+    that (both within 1e-6 mm). It is a plate by its size."""
+    camera_height_mm = camera.centre_mm[2]
+    widths = plate_widths_mm(_plate_seen(camera, heading_deg, bottom_mm=bottom_mm), camera.road_to_image(),
+                             camera_height_mm, 1200.0)
+    on_road_mm = 440.0 * camera_height_mm / (camera_height_mm - bottom_mm)
+    np.testing.assert_allclose(widths, [on_road_mm * (1.0 - 1200.0 / camera_height_mm), on_road_mm], atol=1e-6)
+    calibration = CameraCalibration(camera.road_to_image(), (1280, 720), camera, 0.5, "test camera")
+    assert implausible_plate(_plate_seen(camera, heading_deg, bottom_mm=bottom_mm), calibration,
+                             PlateParams.from_config()) is None
+
+
+def test_a_part_no_plate_can_be_is_not_a_plate(camera: PinholeCamera) -> None:
+    """A plate-like part 1.4 m wide at the top of a windscreen (1.4 m high) is wider than any plate at any
+    mounting height: 1400 x 6500 / 5100 = 1784 mm on the road, 1455 mm had it been 1.2 m high; one 200 mm wide
+    on the road is narrower (163-200 mm); one beyond the horizon has no size on the road."""
+    calibration = CameraCalibration(camera.road_to_image(), (1280, 720), camera, 0.5, "test camera")
+    params = PlateParams.from_config()
+    roof = implausible_plate(_plate_seen(camera, 90.0, width_mm=1400.0, bottom_mm=1400.0), calibration, params)
+    narrow = implausible_plate(_plate_seen(camera, 90.0, width_mm=200.0, bottom_mm=0.0), calibration, params)
+    assert roof.startswith("a plate-like part would be 1455-1784 mm wide, not 300-530 mm")
+    assert narrow.startswith("a plate-like part would be 163-200 mm wide")
+    skyward = _plate_seen(camera, 90.0, middle_mm=(0.0, 9000.0))
+    skyward = dataclasses.replace(skyward, corners_px=skyward.corners_px - [0.0, 700.0])
+    assert implausible_plate(skyward, calibration, params) == "a plate-like part's lower edge lies above the horizon"
+
+
 def test_the_end_bottom_height_is_the_lowest_point_near_that_end() -> None:
     nose = np.array([[2000.0, -800, 300], [2000, 800, 300], [2100, -800, 320], [2100, 800, 320], [1900, 0, 900]])
     tail = np.array([[-2100.0, -800, 250], [-2100, 800, 250], [-2000, 0, 800]])
@@ -100,4 +135,7 @@ def test_a_heading_agreement_out_of_range_is_named_before_any_work() -> None:
     groups = {name: dataclasses.asdict(getattr(defaults, name)) for name in ("footprint", "plate", "wheels")}
     groups["plate"]["heading_agreement_deg"] = -1.0
     with pytest.raises(ConfigError, match=r"plate\.heading_agreement_deg: must be in \[0, 90\], got -1.0"):
+        DetectorParams.from_mapping(groups)
+    groups["plate"] |= {"heading_agreement_deg": 5.0, "width_range_mm": [530.0, 300.0]}
+    with pytest.raises(ConfigError, match=r"plate\.width_range_mm\[1\]: must be >= 530, got 300.0"):
         DetectorParams.from_mapping(groups)

@@ -4,11 +4,13 @@ The plate branch, first: O is the footprint point below the plate's middle P, wh
 vertical through P (towards the camera's vertical vanishing point) meets the front line l_F; C lies along
 the length axis, into the vehicle (perpendicular to the plate's upper and lower edges on the road when they
 agree with the side line's direction, else along it); the box's visible end is stuck to O_W with its long
-centreline along O_W C_W. The wheel branch, when no plate is found: the two near tyres' contacts on the side
-line l_S (the outer faces' contacts with the road, where l_S touches the tyres; taken from the tyres
-themselves, as a shadow beside the car can push the silhouette's l_S outwards; l_S's direction is the one
-from contact to contact), Q their middle on the road, C perpendicular to l_S, into the vehicle; the box's
-near side is stuck to Q_W between the axles with its short centreline along Q_W C_W.
+centreline along O_W C_W. A plate-like part that no plate could be by its width on the road, at any height
+a plate is mounted at (a bright band on the roof of a small, far car), is not taken. The wheel branch, when
+no plate is found: the two near tyres' contacts on the side line l_S (the outer faces' contacts with the
+road, where l_S touches the tyres; taken from the tyres themselves, as a shadow beside the car can push the
+silhouette's l_S outwards; l_S's direction is the one from contact to contact), Q their middle on the road,
+C perpendicular to l_S, into the vehicle; the box's near side is stuck to Q_W between the axles with its
+short centreline along Q_W C_W.
 """
 
 from __future__ import annotations
@@ -118,6 +120,31 @@ def plate_length_heading_deg(plate: Plate, road_to_image: ProjectiveTransform, f
     return heading if gap <= agreement_deg else footprint_heading_deg
 
 
+def plate_widths_mm(plate: Plate, road_to_image: ProjectiveTransform, camera_height_mm: float,
+                    max_height_mm: float) -> tuple[float, float] | None:
+    """The widths (mm) the plate can have, lowest and highest: its lower edge mapped to the road is its width
+    stretched by H / (H - h) for a plate h above the road seen from a camera H high, with h from 0 to
+    `max_height_mm`; None when that edge lies at or above the horizon."""
+    lower_edge_mm = road_to_image.inverse(plate.corners_px[[3, 2]])
+    if not np.all(np.isfinite(lower_edge_mm)):
+        return None
+    road_width_mm = float(np.linalg.norm(lower_edge_mm[1] - lower_edge_mm[0]))
+    return road_width_mm * max(0.0, 1.0 - max_height_mm / camera_height_mm), road_width_mm
+
+
+def implausible_plate(plate: Plate, calibration: CameraCalibration, params: PlateParams) -> str | None:
+    """Why the plate cannot be one by its size on the road (None when it can): no width it could have, at any
+    height it could be mounted at, lies in `params.width_range_mm`."""
+    widths = plate_widths_mm(plate, calibration.road_to_image, calibration.camera.centre_mm[2], params.max_height_mm)
+    low_mm, high_mm = params.width_range_mm
+    if widths is None:
+        return "a plate-like part's lower edge lies above the horizon"
+    if widths[0] > high_mm or widths[1] < low_mm:
+        return (f"a plate-like part would be {widths[0]:.0f}-{widths[1]:.0f} mm wide, not "
+                f"{low_mm:.0f}-{high_mm:.0f} mm (plate.width_range_mm)")
+    return None
+
+
 def below_plate_mm(plate_centre_mm: np.ndarray, front_line_mm: np.ndarray, camera_foot_mm: np.ndarray) -> np.ndarray:
     """O: where the vertical through the plate's middle P meets the front footprint line, on the road. The
     vertical's image maps to the road as the line from the camera's foot through P's road image."""
@@ -144,7 +171,8 @@ def paper_placement(
     foot = calibration.camera.centre_mm[:2]
     length_mm, width_mm = spec.length_mm, spec.width_mm
     plate = detect_plate(roi_bgr, silhouette.mask, offset, params.plate)
-    if plate is not None:
+    not_a_plate = None if plate is None else implausible_plate(plate, calibration, params.plate)
+    if plate is not None and not_a_plate is None:
         lines = _footprint_lines(roi_bgr, silhouette.trimmed(), offset, calibration, params)
         p_mm = road_to_image.inverse.map_visible(plate.centre_px[None], "P")[0]
         front_line = lowered_line_mm(lines.front_line_mm, end_bottom_height_mm(shape, visible_end), calibration.camera.centre_mm)
@@ -158,7 +186,8 @@ def paper_placement(
     wheels = detect_wheels(roi_bgr, silhouette.mask, offset, road_to_image, foot, params.wheels)
     if wheels is None or len(wheels.wheels) < 2:
         found = "one wheel" if wheels is not None else "no wheel"
-        raise NotLocalized(f"neither a licence plate nor two wheels found (found {found})")
+        raise NotLocalized(f"neither a licence plate nor two wheels found (found {found}"
+                           f"{'' if not_a_plate is None else '; ' + not_a_plate})")
     contacts_px = np.array([w.outer_contact_px for w in wheels.wheels])
     contacts_mm = road_to_image.inverse.map_visible(contacts_px, "tyre contact")
     q_mm = contacts_mm.mean(axis=0)

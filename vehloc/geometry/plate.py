@@ -52,9 +52,14 @@ class PlateParams:
     expected_crossings: int
     min_score: float
     heading_agreement_deg: float
+    width_range_mm: tuple[float, float]
+    max_height_mm: float
 
     def __post_init__(self) -> None:
         check_range("heading_agreement_deg", self.heading_agreement_deg, 0.0, 90.0)
+        check_range("width_range_mm[0]", self.width_range_mm[0], 0.0, low_open=True)
+        check_range("width_range_mm[1]", self.width_range_mm[1], self.width_range_mm[0])
+        check_range("max_height_mm", self.max_height_mm, 0.0, low_open=True)
 
     @classmethod
     def from_config(cls, **overrides: object) -> PlateParams:
