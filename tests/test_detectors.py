@@ -3,13 +3,22 @@ gives a plate and no wheels, a side-on pose wheels and no plate, and the footpri
 
 from __future__ import annotations
 
+import dataclasses
+import re
+
 import numpy as np
 import pytest
 
 from detector_scenes import BLACK, SILVER, heading_error_deg, render_case
+from vehloc.data.boxes import Box
 from vehloc.geometry.footprint import FootprintParams, detect_footprint
+from vehloc.geometry.keypoints import DetectorParams, NotLocalized, paper_placement
 from vehloc.geometry.plate import PlateParams, detect_plate
+from vehloc.geometry.roi import Silhouette
+from vehloc.geometry.site_calibration import CameraCalibration
 from vehloc.geometry.wheels import WheelParams, detect_wheels
+from vehloc.synth.body import catalog_shapes
+from vehloc.synth.catalog import vehicle_specs
 
 
 def detect_all(case):
@@ -44,3 +53,25 @@ def test_wheel_branch(car):
     rear, front = (wheel.contact_px for wheel in wheels.wheels)
     along = (wheels.q_px - rear) @ (front - rear) / np.sum((front - rear) ** 2)
     assert 0.4 < along < 0.6
+
+
+def test_a_plate_is_taken_only_with_a_plates_width_on_the_road():
+    """The plate branch of the paper's placement on the rear view: the 440-mm plate is taken; told that plates
+    are 10-20 mm wide, the placement does not take it, falls to the wheel branch (no wheels in this view) and
+    says what the part would measure: a range that holds the plate's true 440 mm."""
+    case = render_case(SILVER, "near_rear")
+    calibration = CameraCalibration(case.camera.road_to_image(), (case.camera.width_px, case.camera.height_px),
+                                    case.camera, 0.5, "test camera")
+    height_px, width_px = case.mask.shape
+    roi = Box(int(case.offset_px[0]), int(case.offset_px[1]), int(case.offset_px[0]) + width_px,
+              int(case.offset_px[1]) + height_px)
+    silhouette = Silhouette(case.mask, case.mask.astype(np.float32), case.mask, 0)
+    spec = next(spec for spec in vehicle_specs() if spec.model_id == SILVER[0])
+    shape = catalog_shapes()[SILVER[0]]
+    params = DetectorParams.from_config()
+    assert paper_placement(case.roi_bgr, silhouette, roi, calibration, spec, shape, params, "rear").kind == "plate"
+    narrow = dataclasses.replace(params, plate=dataclasses.replace(params.plate, width_range_mm=(10.0, 20.0)))
+    with pytest.raises(NotLocalized, match=r"found no wheel; a plate-like part would be (\d+)-(\d+) mm wide") as caught:
+        paper_placement(case.roi_bgr, silhouette, roi, calibration, spec, shape, narrow, "rear")
+    low_mm, high_mm = (float(v) for v in re.search(r"(\d+)-(\d+) mm wide", str(caught.value)).groups())
+    assert low_mm < 440.0 < high_mm

@@ -30,7 +30,8 @@ from vehloc.geometry.silhouette import PIXEL_CORNERS
 
 @dataclass(frozen=True)
 class PlateParams:
-    """Colour rule (OpenCV's 8-bit HSV: H 0-180, S and V 0-255), character rows, edges and plate tests."""
+    """Colour rule (OpenCV's 8-bit HSV: H 0-180, S and V 0-255), character rows, edges and plate tests, and the
+    widths and mounting heights a plate has (which the placement checks on the road)."""
 
     hue_range: tuple[int, int]
     saturation_range: tuple[int, int]
