@@ -17,6 +17,7 @@ import cv2
 import numpy as np
 import pandas as pd
 
+from vehloc.atomic import write_image, write_text
 from vehloc.geometry.calibration import CalibrationParams
 from vehloc.geometry.roi import RoiParams, VehicleRoiExtractor
 from vehloc.geometry.site import read_site
@@ -49,9 +50,9 @@ def run_roi(out_dir: Path) -> tuple[pd.DataFrame, int]:
             cv2.putText(canvas, f"frame {index}", (4, 14), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (255, 255, 255), 1)
             shown.append(canvas)
     grid = np.vstack([np.hstack(shown[i:i + 3]) for i in range(0, len(shown), 3)])
-    cv2.imwrite(str(out_dir / "roi_frames.png"), grid)
+    write_image(out_dir / "roi_frames.png", grid)
     boxes = pd.DataFrame(rows, columns=["frame", "x0", "y0", "x1", "y1"])
-    boxes.to_csv(out_dir / "roi_boxes.csv", index=False)
+    write_text(out_dir / "roi_boxes.csv", boxes.to_csv(index=False))
     return boxes, index + 1
 
 
@@ -98,10 +99,9 @@ def main() -> None:
         f"at least one vehicle box, {len(learnt) / max(1, frames_total - 150):.2f} boxes per frame on average",
         "- `roi_frames.png` shows frames " + ", ".join(map(str, SHOWN_FRAMES)) + " with their boxes",
     ]
-    (args.out / "report.md").write_text("\n".join(lines) + "\n")
-    (args.out / "plausibility.json").write_text(
-        json.dumps({"left_curb_mm": curb_mm.tolist(), "right_lane_px": lane_px.tolist()}, indent=2)
-    )
+    write_text(args.out / "report.md", "\n".join(lines) + "\n")
+    write_text(args.out / "plausibility.json",
+               json.dumps({"left_curb_mm": curb_mm.tolist(), "right_lane_px": lane_px.tolist()}, indent=2))
     print("\n".join(lines))
 
 

@@ -19,6 +19,7 @@ import cv2
 import numpy as np
 import pandas as pd
 
+from vehloc.atomic import write_image, write_text
 from vehloc.geometry.drawing import METHOD_COLOURS_BGR, draw_cuboid
 from vehloc.geometry.localize import LOCALIZED, Localizer, PipelineParams, VehicleRecord
 from vehloc.geometry.roi import RoiParams
@@ -74,7 +75,7 @@ def overlay(records: list[VehicleRecord], localizer: Localizer, path: Path) -> l
         tiles.append(cv2.resize(canvas, None, fx=2, fy=2, interpolation=cv2.INTER_NEAREST))
     while len(tiles) % 3:
         tiles.append(np.zeros_like(tiles[0]))
-    cv2.imwrite(str(path), np.vstack([np.hstack(tiles[i:i + 3]) for i in range(0, len(tiles), 3)]))
+    write_image(path, np.vstack([np.hstack(tiles[i:i + 3]) for i in range(0, len(tiles), 3)]))
     return busiest
 
 
@@ -94,7 +95,7 @@ def main() -> None:
     records = pd.read_csv(args.out / "records.csv")
     left_curb_x_mm = float(calibration.road_to_image.inverse(LEFT_CURB_PX)[:, 0].mean())
     table = checks(records, left_curb_x_mm)
-    table.to_csv(args.out / "checks.csv", index=False)
+    write_text(args.out / "checks.csv", table.to_csv(index=False))
     shown = overlay(list(run.records), localizer, args.out / "overlay.png")
     # one line per reason: the fit's overlap and the path's sigma, which vary per record, are left out of the grouping
     reasons = (records[records.status != LOCALIZED].reason
@@ -115,7 +116,7 @@ def main() -> None:
         "",
         f"![overlay](overlay.png) frames {', '.join(map(str, shown))}: paper's method green, model fit blue.",
     ]
-    (args.out / "report.md").write_text("\n".join(lines) + "\n")
+    write_text(args.out / "report.md", "\n".join(lines) + "\n")
     print("\n".join(lines))
 
 
