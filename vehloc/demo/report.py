@@ -14,10 +14,9 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from vehloc.atomic import atomic_path, write_text  # noqa: E402
+from vehloc.geometry.drawing import METHOD_STYLES  # noqa: E402
 from vehloc.geometry.table2 import PAPER_HEADING_DEG, PAPER_POSITION_PCT  # noqa: E402
 from vehloc.tables import markdown_table  # noqa: E402
-
-METHOD_COLOURS = {"paper": "tab:orange", "fit": "tab:blue"}
 
 
 def _section(markdown: str, heading: str) -> str:
@@ -42,7 +41,7 @@ def write_summary_png(path: Path, table1: pd.DataFrame, table2: pd.DataFrame, bi
     figure = plt.figure(figsize=(15, 10), constrained_layout=True)
     grid = figure.add_gridspec(2, 4)
     accuracy = figure.add_subplot(grid[0, :2])
-    accuracy.barh(table1["model"], table1["top1_pct"], color="tab:green")
+    accuracy.barh(table1["model"], table1["top1_pct"], color="tab:gray")
     accuracy.invert_yaxis()
     accuracy.set_xlim(0, 100)
     accuracy.set_xlabel("top-1 on the test split (%)")
@@ -57,7 +56,7 @@ def write_summary_png(path: Path, table1: pd.DataFrame, table2: pd.DataFrame, bi
             rows = localized[localized["method"] == method].set_index("scene") if len(localized) else pd.DataFrame()
             values = [abs(float(rows.loc[s, key])) if s in rows.index else np.nan for s in scenes]
             wrong = [s in rows.index and not bool(rows.loc[s, "correct"]) for s in scenes]
-            axes.barh(y + offset, values, height=0.4, color=METHOD_COLOURS[method], label=method,
+            axes.barh(y + offset, values, height=0.4, color=METHOD_STYLES[method][0], label=METHOD_STYLES[method][2],
                       hatch=[("//" if w else "") for w in wrong])
         axes.axvline(limit, color="k", linestyle="--", linewidth=1, label="paper's worst")
         axes.set_yticks(y, [s.replace("table2_", "") for s in scenes] if column == 0 else [""] * len(scenes))
