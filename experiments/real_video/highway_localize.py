@@ -97,10 +97,11 @@ def main() -> None:
     table = checks(records, left_curb_x_mm)
     write_text(args.out / "checks.csv", table.to_csv(index=False))
     shown = overlay(list(run.records), localizer, args.out / "overlay.png")
-    # one line per reason: the fit's overlap and the path's sigma, which vary per record, are left out of the grouping
+    # one line per reason: the fit's overlap and the path's sigmas, which vary per record, are left out of the grouping
     reasons = (records[records.status != LOCALIZED].reason
                .str.replace(r"overlap [0-9.]+ <", "overlap <", regex=True)
-               .str.replace(r"sigma [0-9.]+ deg >", "sigma >", regex=True).value_counts())
+               .str.replace(r"sigma [0-9.]+ deg >", "sigma >", regex=True)
+               .str.replace(r"is [0-9.]+ sigma from zero <", "is too close to zero <", regex=True).value_counts())
     lines = [
         "# Real video: every car localized frame by frame",
         "",

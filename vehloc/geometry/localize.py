@@ -75,6 +75,7 @@ class PipelineParams:
     motion_max_gap_frames: int
     motion_jitter_px: float
     max_motion_sigma_deg: float
+    min_speed_sigmas: float
     min_fit_iou: float
 
     def __post_init__(self) -> None:
@@ -82,6 +83,7 @@ class PipelineParams:
         check_range("motion_max_gap_frames", self.motion_max_gap_frames, 1)
         check_range("motion_jitter_px", self.motion_jitter_px, 0.0)
         check_range("max_motion_sigma_deg", self.max_motion_sigma_deg, 0.0)
+        check_range("min_speed_sigmas", self.min_speed_sigmas, 0.0)
         check_range("min_fit_iou", self.min_fit_iou, 0.0, 1.0)
 
     @classmethod
@@ -248,7 +250,8 @@ class Localizer:
         travel = self.travel_heading_deg(track)
         moving = self.is_moving(track)
         path = self.motion_heading(track, frame_index) if moving else None
-        unclear = moving and (path is None or path.sigma_deg > self.params.max_motion_sigma_deg)
+        unclear = moving and (path is None or path.sigma_deg > self.params.max_motion_sigma_deg
+                              or path.speed_sigmas < self.params.min_speed_sigmas)
         motion = None if unclear else path
         if motion is not None:
             record = replace(record, reason=f"heading from the track's path (sigma {motion.sigma_deg:.1f} deg)")
@@ -328,12 +331,16 @@ def joined(*reasons: str) -> str:
 
 
 def unclear_path(path: PathHeading | None, params: PipelineParams) -> str:
-    """Why a moving vehicle without key points has no heading: its recent path is too short or too irregular."""
+    """Why a moving vehicle without key points has no heading: its recent path is too short, too irregular, or does
+    not tell which way it goes."""
     if path is None:
         return (f"it moves, but its path over the last {params.motion_window_frames} frames spans less than "
                 f"{params.min_travel_mm:.0f} mm (pipeline.min_travel_mm)")
-    return (f"it moves, but its path's heading is uncertain (sigma {path.sigma_deg:.1f} deg > "
-            f"pipeline.max_motion_sigma_deg)")
+    if path.sigma_deg > params.max_motion_sigma_deg:
+        return (f"it moves, but its path's heading is uncertain (sigma {path.sigma_deg:.1f} deg > "
+                f"pipeline.max_motion_sigma_deg)")
+    return (f"it moves, but its path does not tell which way (its speed along it is {path.speed_sigmas:.1f} sigma "
+            f"from zero < pipeline.min_speed_sigmas)")
 
 
 def poor_fit(fit: Estimate) -> str:

@@ -1,5 +1,5 @@
 """A moving vehicle's heading from its path on the road: the road points under its box's bottom over its last
-frames, their principal direction, and that direction's 1-sigma uncertainty.
+frames, their principal direction, pointed the way the vehicle went, and that direction's 1-sigma uncertainty.
 
 The uncertainty is the straight-line fit's: the points' spread across the path over the square root of their
 spread along it. The spread comes from the jitter of the box's bottom in the image: measured as the points'
@@ -8,6 +8,10 @@ never taken below `jitter_px` (two points have no residual), and turned into mil
 road where each point lies (a far vehicle's pixel spans a lot of road). A box whose bottom jumps, as when a
 neighbour joins the blob or the blob loses its lower part, thus makes its path uncertain even when the points
 happen to lie on one line.
+
+Which way along that direction the vehicle went is the sign of its speed along it (the least-squares constant-speed
+motion's); the speed's distance from zero in its own sigmas (the same jitter, turned into millimetres along the
+path) says how sure that way is: a box whose bottom wanders back and forth gives a path that does not tell.
 """
 
 from __future__ import annotations
@@ -22,14 +26,16 @@ from vehloc.geometry.projective import ProjectiveTransform
 
 @dataclass(frozen=True)
 class PathHeading:
-    """The heading (deg) a path points in, from its first point towards its last, its 1-sigma (deg), the box
-    bottom's jitter it was taken with (px), and the points' count and extent along the path (mm)."""
+    """The heading (deg) a path points in, the way the vehicle went along it, its 1-sigma (deg), the box bottom's
+    jitter it was taken with (px), the points' count and extent along the path (mm), and the speed along the path
+    in its own sigmas (how sure the way is)."""
 
     heading_deg: float
     sigma_deg: float
     jitter_px: float
     points: int
     extent_mm: float
+    speed_sigmas: float
 
 
 def recent_path(points_mm: list[np.ndarray], frames: list[int], frame_index: int, window_frames: int,
@@ -61,9 +67,9 @@ def box_bottom_jitter_px(points_mm: np.ndarray, frames: np.ndarray, road_to_imag
 
 def path_heading(points_mm: np.ndarray, frames: np.ndarray, min_extent_mm: float, road_to_image: ProjectiveTransform,
                  jitter_px: float) -> PathHeading | None:
-    """The heading of a path of road points seen at `frames` (their principal direction, pointed from the first
-    towards the last) and its 1-sigma; None when fewer than two are finite or they spread less than
-    `min_extent_mm` along it."""
+    """The heading of a path of road points seen at `frames` (their principal direction, pointed the way the
+    constant-speed motion through them goes) and its 1-sigma; None when fewer than two are finite or they spread
+    less than `min_extent_mm` along it."""
     points = np.asarray(points_mm, dtype=float).reshape(-1, 2)
     finite = np.all(np.isfinite(points), axis=1)
     points, frames = points[finite], np.asarray(frames, dtype=float)[finite]
@@ -77,8 +83,13 @@ def path_heading(points_mm: np.ndarray, frames: np.ndarray, min_extent_mm: float
         return None
     jitter_px = max(jitter_px, box_bottom_jitter_px(points, frames, road_to_image))
     across = np.array([-direction[1], direction[0]])
-    per_px_mm = road_to_image.inverse.jacobian(road_to_image(points)).transpose(0, 2, 1) @ across  # (N, 2): x, y px
-    across_var_mm2 = jitter_px**2 * float(np.mean(np.sum(per_px_mm**2, axis=1)))
+    per_px_mm = road_to_image.inverse.jacobian(road_to_image(points)).transpose(0, 2, 1)  # (N, 2, 2): mm per x, y px
+    across_var_mm2 = jitter_px**2 * float(np.mean(np.sum((per_px_mm @ across) ** 2, axis=1)))
+    along_var_mm2 = jitter_px**2 * float(np.mean(np.sum((per_px_mm @ direction) ** 2, axis=1)))
     sigma_rad = np.sqrt(across_var_mm2 / float(np.sum(along**2)))
-    pointed = direction if along[-1] >= along[0] else -direction
-    return PathHeading(heading_of(pointed), float(np.degrees(sigma_rad)), jitter_px, len(points), extent_mm)
+    time = frames - frames.mean()
+    speed_mm = float(time @ along / (time @ time))
+    speed_sigmas = abs(speed_mm) / np.sqrt(along_var_mm2 / (time @ time))
+    pointed = direction if speed_mm >= 0 else -direction
+    return PathHeading(heading_of(pointed), float(np.degrees(sigma_rad)), jitter_px, len(points), extent_mm,
+                       float(speed_sigmas))
