@@ -101,7 +101,8 @@ def main() -> None:
     reasons = (records[records.status != LOCALIZED].reason
                .str.replace(r"overlap [0-9.]+ <", "overlap <", regex=True)
                .str.replace(r"sigma [0-9.]+ deg >", "sigma >", regex=True)
-               .str.replace(r"is [0-9.]+ sigma from zero <", "is too close to zero <", regex=True).value_counts())
+               .str.replace(r"its speed along it, [0-9.]+ sigma, is below", "its speed along it is below", regex=True)
+               .value_counts())
     lines = [
         "# Real video: every car localized frame by frame",
         "",

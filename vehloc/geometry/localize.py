@@ -339,8 +339,8 @@ def unclear_path(path: PathHeading | None, params: PipelineParams) -> str:
     if path.sigma_deg > params.max_motion_sigma_deg:
         return (f"it moves, but its path's heading is uncertain (sigma {path.sigma_deg:.1f} deg > "
                 f"pipeline.max_motion_sigma_deg)")
-    return (f"it moves, but its path does not tell which way (its speed along it is {path.speed_sigmas:.1f} sigma "
-            f"from zero < pipeline.min_speed_sigmas)")
+    return (f"it moves, but its path does not tell which way (its speed along it, {path.speed_sigmas:.1f} sigma, is "
+            f"below pipeline.min_speed_sigmas)")
 
 
 def poor_fit(fit: Estimate) -> str:
