@@ -8,8 +8,8 @@ dimensions (the paper's method), the predicted model's shape is fitted to its si
 model fit; a moving vehicle points where it goes, so with `heading_from_motion` its heading is its recent
 path's and the fit finds only its position), and each estimate gets its 1-sigma uncertainty. A vehicle cut by
 the frame's edge, with neither plate nor wheels found, whose fit does not explain its silhouette, or that moves
-along a path too short or too irregular to tell its heading (and shows no key points), is recorded as not
-localized, with the reason.
+along a path too short or too irregular to tell its heading, or which way it goes (and shows no key points), is
+recorded as not localized, with the reason.
 """
 
 from __future__ import annotations

@@ -88,8 +88,8 @@ def path_heading(points_mm: np.ndarray, frames: np.ndarray, min_extent_mm: float
     along_var_mm2 = jitter_px**2 * float(np.mean(np.sum((per_px_mm @ direction) ** 2, axis=1)))
     sigma_rad = np.sqrt(across_var_mm2 / float(np.sum(along**2)))
     time = frames - frames.mean()
-    speed_mm = float(time @ along / (time @ time))
-    speed_sigmas = abs(speed_mm) / np.sqrt(along_var_mm2 / (time @ time))
-    pointed = direction if speed_mm >= 0 else -direction
+    speed_mm_per_frame = float(time @ along / (time @ time))
+    speed_sigmas = abs(speed_mm_per_frame) / np.sqrt(along_var_mm2 / (time @ time))
+    pointed = direction if speed_mm_per_frame >= 0 else -direction
     return PathHeading(heading_of(pointed), float(np.degrees(sigma_rad)), jitter_px, len(points), extent_mm,
                        float(speed_sigmas))
