@@ -14,7 +14,7 @@ from bad_input import write_handmade_onnx
 from vehloc.config import ConfigError
 from vehloc.data.boxes import Box
 from vehloc.geometry.camera import PinholeCamera
-from vehloc.geometry.localize import NOT_LOCALIZED, Localizer, PipelineParams, travel_start_box
+from vehloc.geometry.localize import NOT_LOCALIZED, Localizer, PipelineParams, VehicleRecord, travel_start_box
 from vehloc.geometry.motion import path_heading, recent_path
 from vehloc.geometry.roi import Silhouette
 from vehloc.geometry.site_calibration import CameraCalibration
@@ -206,20 +206,28 @@ class _EmptyForeground(_ScriptedExtractor):
         return Silhouette(empty, empty.astype(np.float32), empty, 0)
 
 
+def records_of_a_far_car(bottoms_px: np.ndarray, params: PipelineParams,
+                         tmp_path: Path) -> tuple[list[VehicleRecord], Localizer]:
+    """The records of a car 40 px wide and 24 px high at image column 640 whose box's bottom is at `bottoms_px` in
+    successive frames, localized with a handmade ONNX classifier and an empty foreground (no key points)."""
+    calibration = CameraCalibration(ROAD_TO_IMAGE, (1280, 720), CAMERA, 0.5, "test camera")
+    boxes = [[Box(620, int(round(b)) - 24, 660, int(round(b)))] for b in bottoms_px]
+    localizer = Localizer(VehicleClassifier.from_onnx(write_handmade_onnx(tmp_path / "model.onnx")), calibration,
+                          params=params)
+    localizer.extractor = _EmptyForeground(boxes)
+    frame = np.zeros((720, 1280, 3), np.uint8)
+    return [record for index in range(len(boxes)) for record in localizer.process(index, frame)], localizer
+
+
 @pytest.mark.parametrize(("max_sigma_deg", "unclear"), [(2.0, True), (90.0, False)])
 def test_a_moving_vehicle_whose_path_does_not_tell_its_heading_is_not_localized(
         max_sigma_deg: float, unclear: bool, tmp_path: Path):
     """A far car seen in two frames, 1.2 m apart along the road: the pixel's jitter alone makes its path's heading
     uncertain by more than 2 deg, so without key points it is not localized, and says why; with the gate at
     90 deg the path would be used (the record then fails only for want of key points: no footprint lines)."""
-    calibration = CameraCalibration(ROAD_TO_IMAGE, (1280, 720), CAMERA, 0.5, "test camera")
     bottoms_px = ROAD_TO_IMAGE(np.array([[0.0, 40000.0], [0.0, 38800.0]]))[:, 1]
-    boxes = [[Box(620, int(round(b)) - 24, 660, int(round(b)))] for b in bottoms_px]
-    localizer = Localizer(VehicleClassifier.from_onnx(write_handmade_onnx(tmp_path / "model.onnx")), calibration,
-                          params=PipelineParams.from_config(every_frame=True, max_motion_sigma_deg=max_sigma_deg))
-    localizer.extractor = _EmptyForeground(boxes)
-    frame = np.zeros((720, 1280, 3), np.uint8)
-    records = [record for index in range(len(boxes)) for record in localizer.process(index, frame)]
+    records, localizer = records_of_a_far_car(
+        bottoms_px, PipelineParams.from_config(every_frame=True, max_motion_sigma_deg=max_sigma_deg), tmp_path)
     assert [r.status for r in records] == [NOT_LOCALIZED, NOT_LOCALIZED]
     path = localizer.motion_heading(localizer.tracker.tracks[0], 1)
     assert path.sigma_deg > 2.0 and path.points == 2
@@ -234,15 +242,9 @@ def test_a_moving_vehicle_whose_path_does_not_tell_which_way_is_not_localized(
     path has an axis but no clear way along it (speed about 1 sigma from zero), so without key points it is not
     localized and says why; with no minimum speed the path would be used (the heading gate is opened to 90 deg for
     both, and the record then fails only for want of key points)."""
-    calibration = CameraCalibration(ROAD_TO_IMAGE, (1280, 720), CAMERA, 0.5, "test camera")
     bottoms_px = np.round(ROAD_TO_IMAGE(np.array([[0.0, 40000.0]]))[0, 1]) + np.array([0, 5, 0, 5, 1, 5])
-    boxes = [[Box(620, int(b) - 24, 660, int(b))] for b in bottoms_px]
     params = PipelineParams.from_config(every_frame=True, max_motion_sigma_deg=90.0, min_speed_sigmas=min_speed_sigmas)
-    localizer = Localizer(VehicleClassifier.from_onnx(write_handmade_onnx(tmp_path / "model.onnx")), calibration,
-                          params=params)
-    localizer.extractor = _EmptyForeground(boxes)
-    frame = np.zeros((720, 1280, 3), np.uint8)
-    records = [record for index in range(len(boxes)) for record in localizer.process(index, frame)]
+    records, localizer = records_of_a_far_car(bottoms_px, params, tmp_path)
     assert all(r.status == NOT_LOCALIZED for r in records)
     path = localizer.motion_heading(localizer.tracker.tracks[0], 5)
     assert path.speed_sigmas < 3.0 and path.sigma_deg < 90.0

@@ -250,8 +250,7 @@ class Localizer:
         travel = self.travel_heading_deg(track)
         moving = self.is_moving(track)
         path = self.motion_heading(track, frame_index) if moving else None
-        unclear = moving and (path is None or path.sigma_deg > self.params.max_motion_sigma_deg
-                              or path.speed_sigmas < self.params.min_speed_sigmas)
+        unclear = unclear_path(path, self.params) if moving else None
         motion = None if unclear else path
         if motion is not None:
             record = replace(record, reason=f"heading from the track's path (sigma {motion.sigma_deg:.1f} deg)")
@@ -264,7 +263,7 @@ class Localizer:
         except (NotLocalized, HorizonError) as why:
             nearest_mm = self.states[track.track_id].ground_points_mm[-1]
             if unclear:
-                return replace(record, status=NOT_LOCALIZED, reason=joined(str(why), unclear_path(path, self.params)))
+                return replace(record, status=NOT_LOCALIZED, reason=joined(str(why), unclear))
             if not (self.params.fit and self.params.fit_from_travel and travel is not None
                     and np.all(np.isfinite(nearest_mm))):
                 return replace(record, status=NOT_LOCALIZED, reason=str(why))
@@ -330,17 +329,19 @@ def joined(*reasons: str) -> str:
     return "; ".join(filter(None, reasons))
 
 
-def unclear_path(path: PathHeading | None, params: PipelineParams) -> str:
-    """Why a moving vehicle without key points has no heading: its recent path is too short, too irregular, or does
-    not tell which way it goes."""
+def unclear_path(path: PathHeading | None, params: PipelineParams) -> str | None:
+    """Why a moving vehicle's recent path cannot give its heading (too short, too irregular, or not telling which
+    way it goes); None when it can."""
     if path is None:
         return (f"it moves, but its path over the last {params.motion_window_frames} frames spans less than "
                 f"{params.min_travel_mm:.0f} mm (pipeline.min_travel_mm)")
     if path.sigma_deg > params.max_motion_sigma_deg:
         return (f"it moves, but its path's heading is uncertain (sigma {path.sigma_deg:.1f} deg > "
                 f"pipeline.max_motion_sigma_deg)")
-    return (f"it moves, but its path does not tell which way (its speed along it, {path.speed_sigmas:.1f} sigma, is "
-            f"below pipeline.min_speed_sigmas)")
+    if path.speed_sigmas < params.min_speed_sigmas:
+        return (f"it moves, but its path does not tell which way (its speed along it, {path.speed_sigmas:.1f} sigma, "
+                f"is below pipeline.min_speed_sigmas)")
+    return None
 
 
 def poor_fit(fit: Estimate) -> str:

@@ -52,16 +52,17 @@ def recent_path(points_mm: list[np.ndarray], frames: list[int], frame_index: int
     return np.array([p for _, p in kept], dtype=float).reshape(-1, 2), np.array([f for f, _ in kept], dtype=float)
 
 
-def box_bottom_jitter_px(points_mm: np.ndarray, frames: np.ndarray, road_to_image: ProjectiveTransform) -> float:
+def box_bottom_jitter_px(points_mm: np.ndarray, frames: np.ndarray, px_per_mm: np.ndarray) -> float:
     """The 1-sigma (px, per image direction) of the points about the least-squares constant-speed straight
-    motion through them, their residuals mapped into the image by the homography's Jacobian; 0 for two points."""
+    motion through them, their residuals mapped into the image by `px_per_mm`, the road-to-image Jacobians
+    (N, 2, 2) at the points; 0 for two points."""
     count = len(points_mm)
     if count < 3:
         return 0.0
     centred = points_mm - points_mm.mean(axis=0)
     time = frames - frames.mean()
     velocity_mm = time @ centred / (time @ time)
-    residual_px = np.einsum("nij,nj->ni", road_to_image.jacobian(points_mm), centred - np.outer(time, velocity_mm))
+    residual_px = np.einsum("nij,nj->ni", px_per_mm, centred - np.outer(time, velocity_mm))
     return float(np.sqrt(np.sum(residual_px**2) / (2 * count - 4)))
 
 
@@ -81,9 +82,10 @@ def path_heading(points_mm: np.ndarray, frames: np.ndarray, min_extent_mm: float
     extent_mm = float(along.max() - along.min())
     if extent_mm < min_extent_mm:
         return None
-    jitter_px = max(jitter_px, box_bottom_jitter_px(points, frames, road_to_image))
+    px_per_mm = road_to_image.jacobian(points)
+    jitter_px = max(jitter_px, box_bottom_jitter_px(points, frames, px_per_mm))
     across = np.array([-direction[1], direction[0]])
-    per_px_mm = road_to_image.inverse.jacobian(road_to_image(points)).transpose(0, 2, 1)  # (N, 2, 2): mm per x, y px
+    per_px_mm = np.linalg.inv(px_per_mm).transpose(0, 2, 1)  # (N, 2, 2): mm per x, y px
     across_var_mm2 = jitter_px**2 * float(np.mean(np.sum((per_px_mm @ across) ** 2, axis=1)))
     along_var_mm2 = jitter_px**2 * float(np.mean(np.sum((per_px_mm @ direction) ** 2, axis=1)))
     sigma_rad = np.sqrt(across_var_mm2 / float(np.sum(along**2)))
