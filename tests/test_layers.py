@@ -1,4 +1,5 @@
-"""The layer contract: data <- train <- infer <- geometry, synth over data and geometry, the demo application
+"""The layer contract: data <- train <- infer <- geometry, synth over data and geometry, the localization
+benchmark over synth, infer and geometry, the demo application
 over them all (training only as a subprocess); deployment (data, infer, geometry, synth) without torch. Checked on the imports written in the source (every `import`, at
 module level or inside functions) and on what importing the deployment packages really loads."""
 
@@ -20,13 +21,14 @@ ALLOWED = {
     "infer": UTILITIES | {"data", "infer"},
     "geometry": UTILITIES | {"data", "infer", "geometry"},
     "synth": UTILITIES | {"data", "geometry", "synth"},
+    "benchmark": UTILITIES | {"data", "infer", "geometry", "synth", "benchmark"},
     "demo": UTILITIES | {"data", "train", "infer", "geometry", "synth", "demo"},
 }
 # the one bridge between training and deployment: export (with training, as it needs torch) turns a checkpoint
 # into an ONNX file and checks it with the deployed classifier; vehloc-export's CLI calls it when it runs
 EXCEPTIONS = {"vehloc.train.export": {"infer"}, "vehloc.infer.export_cli": {"train"}}
 TORCH = {"torch", "torchvision", "lightning", "pytorch_lightning", "torchmetrics"}
-TORCH_FREE_LAYERS = {"utilities", "data", "infer", "geometry", "synth", "demo"}
+TORCH_FREE_LAYERS = {"utilities", "data", "infer", "geometry", "synth", "benchmark", "demo"}
 
 
 def module_name(path: Path, root: Path) -> str:
@@ -76,6 +78,7 @@ def test_every_import_follows_the_layers():
     ("data/reader.py", "import vehloc.synth.catalog\n", "vehloc.data.reader (data) imports vehloc.synth.catalog"),
     ("infer/classifier.py", "import torch\n", "vehloc.infer.classifier (infer) imports torch, deployment runs without torch"),
     ("synth/scene.py", "from vehloc.infer import VehicleClassifier\n", "vehloc.synth.scene (synth) imports vehloc.infer"),
+    ("benchmark/runner.py", "import vehloc.train.module\n", "vehloc.benchmark.runner (benchmark) imports vehloc.train.module"),
 ])
 def test_a_forbidden_import_is_caught(tmp_path: Path, module: str, source: str, expected: str):
     """The checker run on a copy of the package with one forbidden import added reports exactly that one."""

@@ -50,7 +50,8 @@ class CarTruth:
     stopping car stops and a passing car is at mid-time. ``axle_middle_x_mm``: where the middle between the
     axles lies along the car, from the footprint's centre towards the front (a specification, with the
     tyres it gives the true pose as the paper measures it). ``poses`` and ``boxes`` hold one entry per frame,
-    None while the car is not in the scene (poses) or not in view (boxes)."""
+    None while the car is not in the scene (poses) or not in view (boxes). ``plates`` is empty for a car
+    rendered without licence plates."""
 
     model_id: int
     make: str
@@ -175,7 +176,7 @@ def _car(reader: _Reader, raw: Any, where: str, frame_count: int) -> CarTruth:
         tyre_contacts_mm=reader.array(raw, "tyre_contacts_mm", where, (4, 2)),
         footprint_corners_mm=reader.array(raw, "footprint_corners_mm", where, (4, 2)),
         plates={end: _plate(reader, reader.get(plates, end, f"{where}.plates"), f"{where}.plates.{end}")
-                for end in ("front", "rear")},
+                for end in ("front", "rear") if isinstance(plates, dict) and end in plates},
         poses=reader.value(raw, "poses", where, _per_frame(_pose, frame_count)),
         boxes=reader.value(raw, "boxes_xyxy_px", where, _per_frame(_box, frame_count)),
     )

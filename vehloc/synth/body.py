@@ -744,18 +744,20 @@ def convex_parts_car_mm(model: CarModel) -> tuple[np.ndarray, ...]:
 
 
 @cache
-def build_car_mesh(model: CarModel) -> Mesh:
-    """The model's mesh in the car frame (cached per model)."""
+def build_car_mesh(model: CarModel, plates: bool = True) -> Mesh:
+    """The model's mesh in the car frame, with or without its licence plates (cached per model)."""
     profile, rings, front_cap, rear_cap = _body(model)
     builder = _MeshBuilder()
     front, rear = _loft(builder, model, profile, rings)
     _add_mirrors(builder, model, profile)
     front_plate_z, rear_plate_z = _plate_heights_mm(front_cap, rear_cap)
     front_decals = _grille(front_cap, model.details.grille) + _headlights(front_cap, model.details.headlight)
-    front_decals += _plate(front_cap, front_plate_z)
+    if plates:
+        front_decals += _plate(front_cap, front_plate_z)
     _add_decals(builder, front, front_cap, front_decals)
     rear_decals = _taillights(rear_cap, model.details.taillight)
-    rear_decals += _plate(rear_cap, rear_plate_z)
+    if plates:
+        rear_decals += _plate(rear_cap, rear_plate_z)
     _add_decals(builder, rear, rear_cap, rear_decals)
     for x_axle, track in (
         (model.front_axle_x_mm, model.track_front_mm),

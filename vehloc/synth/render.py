@@ -270,11 +270,11 @@ class _ProjectedFaces:
 
 
 def _projected_faces(
-    model: CarModel, body_rgb: RGB, pose: CarPose, camera: PinholeCamera, lighting: Lighting
+    model: CarModel, body_rgb: RGB, pose: CarPose, camera: PinholeCamera, lighting: Lighting, plates: bool = True
 ) -> _ProjectedFaces:
     """Cull, sort, project and shade the model's faces; ValueError when part of the car is behind the
     camera's near plane."""
-    mesh = build_car_mesh(model)
+    mesh = build_car_mesh(model, plates)
     vertices = pose.car_to_world(mesh.vertices_mm)
     centroids = pose.car_to_world(mesh.centroids_mm)
     normals = mesh.normals @ pose.rotation.T
@@ -325,14 +325,16 @@ def render_car(
     lighting: Lighting = Lighting(),
     shadow_strength: float = 0.55,
     supersample: int = 3,
+    plates: bool = True,
 ) -> CarRender:
-    """Render one car over a background image (H, W, 3 uint8, the camera's size)."""
+    """Render one car over a background image (H, W, 3 uint8, the camera's size), with or without its licence
+    plates (`plates` of the result is empty without)."""
     height, width = camera.height_px, camera.width_px
     if background_bgr.shape != (height, width, 3):
         raise ValueError(
             f"background shape {background_bgr.shape} does not match the camera's {(height, width, 3)}"
         )
-    faces = _projected_faces(model, body_rgb, pose, camera, lighting)
+    faces = _projected_faces(model, body_rgb, pose, camera, lighting, plates)
 
     frame = Box(0, 0, width, height)
     shadows = _shadows(camera, model, pose, lighting, shadow_strength) if shadow_strength > 0 else []
@@ -363,5 +365,5 @@ def render_car(
         tyre_contacts_px=camera.project(contacts_mm),
         footprint_corners_mm=corners_mm,
         footprint_corners_px=camera.project(corners_mm),
-        plates=plates_seen(model, pose, camera),
+        plates=plates_seen(model, pose, camera) if plates else {},
     )

@@ -86,8 +86,8 @@ class CameraSpec:
 @dataclass(frozen=True)
 class CarSpec:
     """One car of a scene: a catalog model and paint, its target pose, the distance it drives to reach it,
-    whether it stops there (else it passes through at constant speed), and how many frames after the
-    empty ones it enters."""
+    whether it stops there (else it passes through at constant speed), how many frames after the
+    empty ones it enters, and whether it carries licence plates."""
 
     model_id: int
     colour_index: int
@@ -97,6 +97,7 @@ class CarSpec:
     approach_mm: float
     stops: bool
     delay_frames: int
+    plates: bool = True
 
     def __post_init__(self) -> None:
         ids = [m.model_id for m in CATALOG]
@@ -214,7 +215,8 @@ def draw_cars(
     present.sort(key=lambda i: -float(np.linalg.norm([poses[i].x_mm, poses[i].y_mm, 0.0] - centre_mm)))
     for i in present:
         try:
-            render = render_car(cars[i].model, cars[i].paint[1], poses[i], camera, image, lighting)
+            render = render_car(cars[i].model, cars[i].paint[1], poses[i], camera, image, lighting,
+                                plates=cars[i].plates)
         except ValueError:  # the car is not yet entirely in front of the camera
             continue
         image, boxes[i] = render.image_bgr, render.box
@@ -272,7 +274,7 @@ def _car_truth(spec: SceneSpec, car: CarSpec, camera: PinholeCamera, boxes: Sequ
         "plates": {
             end: {"corners_mm": plate.corners_mm.tolist(), "corners_px": plate.corners_px.tolist(),
                   "centre_px": camera.project(plate.centre_mm[None])[0].tolist(), "faces_camera": plate.faces_camera}
-            for end, plate in plates_seen(model, pose, camera).items()
+            for end, plate in (plates_seen(model, pose, camera) if car.plates else {}).items()
         },
         "plate_corner_order": "counter-clockwise seen from outside the car, from the lower corner on its right",
         "poses": [None if p is None else _pose_truth(p) for p in poses],

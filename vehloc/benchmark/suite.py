@@ -1,0 +1,142 @@
+"""The benchmark's settings, read and checked from its composed config before any case runs, and its cases run
+side by side in worker processes, each case's row (and picture, where it falls short) gathered in seed order."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Iterator, Mapping
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import cv2
+
+from vehloc.benchmark.cases import BenchmarkCase, DrawParams, cameras_from_config, draw_case
+from vehloc.benchmark.runner import CaseOutcome, run_case, thumbnail
+from vehloc.benchmark.visibility import VisibilityParams
+from vehloc.config import ConfigError, SettingError, build_params
+from vehloc.infer.classifier import VehicleClassifier
+from vehloc.synth.catalog import model_by_id
+from vehloc.synth.road import RoadLayout
+from vehloc.synth.scene import CameraSpec
+
+SPLITS = ("dev", "heldout")
+CELL_PX = (240, 150)
+
+
+@dataclass(frozen=True)
+class BenchmarkSettings:
+    """Everything a benchmark run needs, checked: which seeds, the classifier (None: the true model), the
+    site's scene settings, the cameras, the draw ranges and the visibility truth's thresholds."""
+
+    seeds: dict[str, tuple[int, ...]]
+    model: Path | None
+    workers: int
+    site: dict[str, Any]
+    cameras: dict[str, CameraSpec]
+    draw: DrawParams
+    visibility: VisibilityParams
+
+    @classmethod
+    def from_config(cls, values: Mapping[str, Any]) -> BenchmarkSettings:
+        """From the composed `conf/localization_benchmark.yaml` (resolved to plain data); ConfigError naming the
+        setting when one is wrong, and the model file when it is missing."""
+        split = values.get("split")
+        if split not in (*SPLITS, "both"):
+            raise ConfigError(f"split: must be dev, heldout or both, got {split!r}")
+        cases = values.get("cases")
+        if not isinstance(cases, int) or cases < 1:
+            raise ConfigError(f"cases: must be a whole number >= 1, got {cases!r}")
+        workers = values.get("workers")
+        if not isinstance(workers, int) or workers < 1:
+            raise ConfigError(f"workers: must be a whole number >= 1, got {workers!r}")
+        first = values.get("seeds") or {}
+        chosen = SPLITS if split == "both" else (split,)
+        for name in chosen:
+            if not isinstance(first.get(name), int):
+                raise ConfigError(f"seeds.{name}: must be a whole number, got {first.get(name)!r}")
+        model = values.get("model")
+        if model is not None and not Path(model).is_file():
+            raise ConfigError(f"model={model}: no such file (an ONNX classifier from vehloc-export, or null for the true model)")
+        try:
+            cameras = cameras_from_config(values.get("cameras"))
+            draw = build_params(DrawParams, values.get("draw"), "draw")
+            visibility = build_params(VisibilityParams, values.get("visibility"), "visibility")
+            RoadLayout(**values["site"]["layout"])
+        except SettingError as err:
+            raise ConfigError(str(err)) from None
+        seeds = {name: tuple(range(first[name], first[name] + cases)) for name in chosen}
+        return cls(seeds, None if model is None else Path(model), workers, dict(values["site"]), cameras, draw, visibility)
+
+
+_worker_classifier: VehicleClassifier | None = None
+
+
+def _start_worker(model: Path | None) -> None:
+    """One thread per worker; the classifier loaded once."""
+    global _worker_classifier
+    cv2.setNumThreads(1)
+    _worker_classifier = None if model is None else VehicleClassifier.from_onnx(model)
+
+
+def _run(settings: BenchmarkSettings, split: str, case: BenchmarkCase) -> CaseOutcome:
+    """One case; a case that fails on its own is a row saying how, not the end of the run."""
+    try:
+        outcome = run_case(case, split, settings.site, settings.cameras[case.camera_name], settings.draw,
+                           settings.visibility, _worker_classifier)
+    except Exception as err:  # noqa: BLE001 - one case's failure is that case's result
+        return CaseOutcome(failed_row(case, split, err), None)
+    if outcome.picture_bgr is None:
+        return outcome
+    row = outcome.row
+    caption = f"{case.seed} {model_by_id(case.model_id).model} {case.camera_name}: {short_reason(row)}"
+    return CaseOutcome(row, thumbnail(outcome.picture_bgr, CELL_PX, caption))
+
+
+def failed_row(case: BenchmarkCase, split: str, err: Exception) -> dict[str, Any]:
+    """The row of a case whose run raised: what it was and what went wrong."""
+    return {"split": split, **asdict(case), "model": model_by_id(case.model_id).name, "status": "error",
+            "reason": f"{type(err).__name__}: {err}", "localized": False, "key_point": "", "correct": False,
+            "key_points_visible": False}
+
+
+def short_reason(row: Mapping[str, Any]) -> str:
+    """A few words on why a case falls short."""
+    if not row["localized"]:
+        return "not localized"
+    if not row.get("fit_within", False):
+        return f"fit {row.get('fit_position_pct', float('nan')):.1f}% {row.get('fit_heading_deg', float('nan')):.1f}deg"
+    if not row.get("key_point"):
+        return "key points missed"
+    return f"paper {row.get('paper_position_pct', float('nan')):.1f}% {row.get('paper_heading_deg', float('nan')):.1f}deg"
+
+
+def drawn_cases(settings: BenchmarkSettings) -> list[tuple[str, BenchmarkCase]]:
+    """Every split's cases, in seed order."""
+    layout = RoadLayout(**settings.site["layout"])
+    return [(split, draw_case(seed, settings.cameras, layout, settings.draw))
+            for split, seeds in settings.seeds.items() for seed in seeds]
+
+
+def run_benchmark(settings: BenchmarkSettings, report: Callable[[int, int, CaseOutcome], None] | None = None
+                  ) -> Iterator[CaseOutcome]:
+    """Run every case (`settings.workers` side by side), yielding the outcomes in seed order; `report` is told
+    of each as it completes (its number, the total, the outcome)."""
+    cases = drawn_cases(settings)
+    if settings.workers == 1:
+        _start_worker(settings.model)
+        for number, (split, case) in enumerate(cases, 1):
+            outcome = _run(settings, split, case)
+            if report:
+                report(number, len(cases), outcome)
+            yield outcome
+        return
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    with ProcessPoolExecutor(settings.workers, initializer=_start_worker, initargs=(settings.model,)) as pool:
+        futures = [pool.submit(_run, settings, split, case) for split, case in cases]
+        for number, future in enumerate(futures, 1):
+            outcome = future.result()
+            if report:
+                report(number, len(cases), outcome)
+            yield outcome
