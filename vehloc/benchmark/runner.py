@@ -133,13 +133,15 @@ def picture(frame_bgr: np.ndarray, case: BenchmarkCase, camera: CameraSpec, reco
 
 
 def run_case(case: BenchmarkCase, split: str, site: Mapping[str, Any], camera: CameraSpec, draw: DrawParams,
-             seen_params: VisibilityParams, classifier: VehicleClassifier | None = None) -> CaseOutcome:
-    """Render, localize and score one case; `classifier` None gives the car's true model (the geometry alone)."""
+             seen_params: VisibilityParams, stages: Mapping[str, object] | None = None,
+             classifier: VehicleClassifier | None = None) -> CaseOutcome:
+    """Render, localize and score one case with the stage settings `stages` (`Localizer` keywords; None: the
+    defaults); `classifier` None gives the car's true model (the geometry alone)."""
     start = time.perf_counter()
     spec = case.scene_spec(site, camera, draw)
     model = model_by_id(case.model_id)
     seen = visibility(model, case.pose, camera.camera(), case.plates, seen_params)
-    localizer = Localizer(classifier or TrueModelClassifier(case.model_id), exact_calibration(camera))
+    localizer = Localizer(classifier or TrueModelClassifier(case.model_id), exact_calibration(camera), **(stages or {}))
     run = localize_stopped_car(spec, localizer)
     row = case_row(case, split, seen, run.record) | {
         "camera_x_mm": camera.position_mm[0], "camera_y_mm": camera.position_mm[1], "frames": run.frames,

@@ -16,6 +16,7 @@ from vehloc.benchmark.cases import BenchmarkCase, DrawParams, cameras_from_confi
 from vehloc.benchmark.runner import CaseOutcome, run_case, thumbnail
 from vehloc.benchmark.visibility import VisibilityParams
 from vehloc.config import ConfigError, SettingError, build_params
+from vehloc.geometry.localize import stage_params
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.synth.catalog import model_by_id
 from vehloc.synth.road import RoadLayout
@@ -28,12 +29,14 @@ CELL_PX = (240, 150)
 @dataclass(frozen=True)
 class BenchmarkSettings:
     """Everything a benchmark run needs, checked: which seeds, the classifier (None: the true model), the
-    site's scene settings, the cameras, the draw ranges and the visibility truth's thresholds."""
+    site's scene settings, the localization's stage settings (`Localizer` keywords), the cameras, the draw
+    ranges and the visibility truth's thresholds."""
 
     seeds: dict[str, tuple[int, ...]]
     model: Path | None
     workers: int
     site: dict[str, Any]
+    localize: dict[str, object]
     cameras: dict[str, CameraSpec]
     draw: DrawParams
     visibility: VisibilityParams
@@ -66,8 +69,10 @@ class BenchmarkSettings:
             RoadLayout(**values["site"]["layout"])
         except SettingError as err:
             raise ConfigError(str(err)) from None
+        localize = stage_params(values["localize"])
         seeds = {name: tuple(range(first[name], first[name] + cases)) for name in chosen}
-        return cls(seeds, None if model is None else Path(model), workers, dict(values["site"]), cameras, draw, visibility)
+        return cls(seeds, None if model is None else Path(model), workers, dict(values["site"]), localize, cameras,
+                   draw, visibility)
 
 
 _worker_classifier: VehicleClassifier | None = None
@@ -84,7 +89,7 @@ def _run(settings: BenchmarkSettings, split: str, case: BenchmarkCase) -> CaseOu
     """One case; a case that fails on its own is a row saying how, not the end of the run."""
     try:
         outcome = run_case(case, split, settings.site, settings.cameras[case.camera_name], settings.draw,
-                           settings.visibility, _worker_classifier)
+                           settings.visibility, settings.localize, _worker_classifier)
     except Exception as err:  # noqa: BLE001 - one case's failure is that case's result
         return CaseOutcome(failed_row(case, split, err), None)
     if outcome.picture_bgr is None:

@@ -70,7 +70,7 @@ def visible_plate(model: CarModel, pose: CarPose, camera: PinholeCamera, params:
     """The end (`front` or `rear`) whose plate the camera sees, None when neither."""
     for end, plate in plates_seen(model, pose, camera).items():
         outward = pose.rotation @ np.array([1.0 if end == "front" else -1.0, 0.0, 0.0])
-        width_px = float(np.linalg.norm(plate.corners_px[0] - plate.corners_px[3]))
+        width_px = float(np.linalg.norm(plate.corners_px[1] - plate.corners_px[0]))  # the lower edge
         if (facing(outward, plate.centre_mm, camera) >= params.plate_min_facing and inside(plate.corners_px, camera)
                 and width_px >= params.plate_min_width_px):
             return end

@@ -14,12 +14,13 @@ recorded as not localized, with the reason.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
-from vehloc.config import check_range, params_from_config
+from vehloc.config import build_params, check_range, params_from_config
 from vehloc.data.boxes import Box
 from vehloc.errors import VehlocError
 from vehloc.geometry.keypoints import DetectorParams, NotLocalized, paper_placement
@@ -28,6 +29,7 @@ from vehloc.geometry.motion import PathHeading, path_heading, recent_path
 from vehloc.geometry.placement import VehicleBox, direction_of, facing, heading_of
 from vehloc.geometry.projective import HorizonError
 from vehloc.geometry.roi import StoppedVehicleTracker, Track, TrackerParams, VehicleRoiExtractor, RoiParams
+from vehloc.geometry.silhouette_start import silhouette_start_headings_deg
 from vehloc.geometry.site_calibration import CameraCalibration
 from vehloc.geometry.timing import StageClock
 from vehloc.geometry.tracks import TrackVotes
@@ -42,6 +44,8 @@ from vehloc.geometry.uncertainty import (
 from vehloc.infer.classifier import VehicleClassifier
 
 LOCALIZED, NOT_LOCALIZED = "localized", "not localized"
+FIT_STARTS = {"key points": "paper's placement", "travel": "track's travel", "silhouette": "silhouette"}
+"""Where a model fit starts (`Estimate.start`), and how a record's reason names it."""
 
 
 def travel_start_box(nearest_mm: np.ndarray, camera_foot_mm: np.ndarray, length_mm: float, width_mm: float,
@@ -70,6 +74,7 @@ class PipelineParams:
     uncertainty_min_probability: float
     fit: bool
     fit_from_travel: bool
+    fit_from_silhouette: bool
     heading_from_motion: bool
     motion_window_frames: int
     motion_max_gap_frames: int
@@ -95,13 +100,14 @@ class PipelineParams:
 @dataclass(frozen=True)
 class Estimate:
     """One method's localization: the box on the road, the key point it stands on (paper's method), its
-    1-sigma uncertainty, and the silhouette overlap reached (model fit)."""
+    1-sigma uncertainty, the silhouette overlap reached and where it started (model fit: `FIT_STARTS`)."""
 
     method: str
     box: VehicleBox
     key_point: str | None
     uncertainty: Uncertainty
     iou: float | None = None
+    start: str = ""
 
 
 @dataclass(frozen=True)
@@ -142,7 +148,7 @@ class VehicleRecord:
                 "centre_y_mm": e.box.centre_mm[1], "heading_deg": e.box.heading_deg,
                 **{f"corner{i}_{axis}_mm": corners[i, j] for i in range(4) for j, axis in enumerate("xy")},
                 "sigma_position_mm": e.uncertainty.position_mm, "sigma_heading_deg": e.uncertainty.heading_deg,
-                "iou": e.iou,
+                "iou": e.iou, "start": e.start,
             })
         return rows
 
@@ -234,6 +240,24 @@ class Localizer:
         foot = self.calibration.camera.centre_mm[:2]
         return "front" if np.linalg.norm(points[-1] - foot) < np.linalg.norm(points[0] - foot) else "rear"
 
+    def fit_starts(self, track: Track, mask: np.ndarray, roi: Box, travel: float | None,
+                   motion: PathHeading | None) -> list[tuple[float, str]]:
+        """Where the model fit starts when no key points are found, as (heading, start) pairs: a moving vehicle
+        from its path's heading and a stopped one from its travel's (`fit_from_travel`), a stopped one from its
+        silhouette's principal road direction and its perpendicular (`fit_from_silhouette`); none without the
+        fit, or when the road point under the box's bottom is unknown."""
+        nearest_mm = self.states[track.track_id].ground_points_mm
+        if not (self.params.fit and nearest_mm and np.all(np.isfinite(nearest_mm[-1]))):
+            return []
+        starts = []
+        if self.params.fit_from_travel and travel is not None:
+            starts.append((travel if motion is None else motion.heading_deg, "travel"))
+        if self.params.fit_from_silhouette and motion is None:
+            offset = np.array([roi.x0, roi.y0], dtype=float)
+            starts += [(heading, "silhouette") for heading in
+                       silhouette_start_headings_deg(mask, offset, self.calibration.road_to_image)]
+        return starts
+
     def localize(self, track: Track, frame_index: int, frame_bgr: np.ndarray) -> VehicleRecord:
         """The record of one tracked vehicle at this frame."""
         box = track.box
@@ -261,19 +285,20 @@ class Localizer:
                                             self.classifier.metadata.shape_of(spec.model_id), self.detectors,
                                             self.visible_end(track))
         except (NotLocalized, HorizonError) as why:
-            nearest_mm = self.states[track.track_id].ground_points_mm[-1]
             if unclear:
                 return replace(record, status=NOT_LOCALIZED, reason=joined(str(why), unclear))
-            if not (self.params.fit and self.params.fit_from_travel and travel is not None
-                    and np.all(np.isfinite(nearest_mm))):
+            starts = self.fit_starts(track, silhouette.mask, roi, travel, motion)
+            if not starts:
                 return replace(record, status=NOT_LOCALIZED, reason=str(why))
-            start = travel_start_box(nearest_mm, self.calibration.camera.centre_mm[:2], spec.length_mm,
-                                     spec.width_mm, travel if motion is None else motion.heading_deg)
+            nearest_mm = self.states[track.track_id].ground_points_mm[-1]
             with self.clock.stage("model fit"):
-                fit = self._fit(start, silhouette.weights, roi, probabilities, travel, motion)
+                fits = [self._fit(travel_start_box(nearest_mm, self.calibration.camera.centre_mm[:2], spec.length_mm,
+                                                   spec.width_mm, heading), silhouette.weights, roi, probabilities,
+                                  travel, motion, start) for heading, start in starts]
+            fit = max(fits, key=lambda estimate: estimate.iou)
             if fit.iou < self.params.min_fit_iou:
                 return replace(record, status=NOT_LOCALIZED, reason=joined(str(why), poor_fit(fit)))
-            return replace(record, reason=joined(f"fit from the track's travel ({why})", record.reason),
+            return replace(record, reason=joined(f"fit from the {FIT_STARTS[fit.start]} ({why})", record.reason),
                            estimates=(fit,))
         paper_box = facing(placement.box, travel) if travel is not None else placement.box
         estimates = [Estimate("paper", paper_box, placement.kind, self._paper_uncertainty(paper_box, placement.kind,
@@ -296,7 +321,7 @@ class Localizer:
         return Uncertainty.combined(paper_dimension_part(kind, spread), self._calibration_part(box, baseline_mm))
 
     def _fit(self, start: VehicleBox, weights: np.ndarray, roi: Box, probabilities: np.ndarray,
-             travel: float | None, motion: PathHeading | None) -> Estimate:
+             travel: float | None, motion: PathHeading | None, start_kind: str = "key points") -> Estimate:
         """The predicted model's shape fitted from `start` (the paper's placement), its heading held at the
         path's when the vehicle moves; its uncertainty from refitting the other probable models' shapes, and
         the path heading's own."""
@@ -321,7 +346,17 @@ class Localizer:
         else:  # the heading is the path's: the calibration turns it over the path's extent, not over the car
             uncertainty = Uncertainty.combined(dimensions, self._calibration_part(box, motion.extent_mm),
                                                (0.0, motion.sigma_deg))
-        return Estimate("fit", box, None, uncertainty, best.iou)
+        return Estimate("fit", box, None, uncertainty, best.iou, start_kind)
+
+
+def stage_params(values: Mapping[str, Any]) -> dict[str, object]:
+    """The settings of the stage groups of `conf/localize/` (`pipeline`, `roi`, `tracker`, `footprint`, `plate`,
+    `wheels`, `fit` of a composed config, as plain data), each checked, as `Localizer` keywords."""
+    detectors = DetectorParams.from_mapping({group: values[group] for group in ("footprint", "plate", "wheels")})
+    return {"params": build_params(PipelineParams, values["pipeline"], "pipeline"),
+            "roi": build_params(RoiParams, values["roi"], "roi"),
+            "tracker": build_params(TrackerParams, values["tracker"], "tracker"), "detectors": detectors,
+            "fit": build_params(FitParams, values["fit"], "fit")}
 
 
 def joined(*reasons: str) -> str:

@@ -10,35 +10,20 @@ import hydra
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig, OmegaConf
 
-from vehloc.config import build_params, config_dir
+from vehloc.config import config_dir
 from vehloc.errors import exit_on_error
-from vehloc.geometry.keypoints import DetectorParams
-from vehloc.geometry.localize import Localizer, PipelineParams
-from vehloc.geometry.model_fit import FitParams
-from vehloc.geometry.roi import RoiParams, TrackerParams
+from vehloc.geometry.localize import Localizer, stage_params
 from vehloc.geometry.site_calibration import read_calibration
 from vehloc.geometry.truth import read_scene_truth
 from vehloc.geometry.video_localization import localize_video
 from vehloc.infer.classifier import VehicleClassifier
 
 
-def _params(cls: type, cfg: DictConfig, key: str):
-    return build_params(cls, OmegaConf.to_container(cfg[key], resolve=True), key)
-
-
-def stage_params(cfg: DictConfig) -> dict[str, object]:
-    """The settings of the stage groups of `conf/localize/`, each checked, as `Localizer` keywords."""
-    detectors = DetectorParams.from_mapping(
-        {group: OmegaConf.to_container(cfg[group], resolve=True) for group in ("footprint", "plate", "wheels")})
-    return {"params": _params(PipelineParams, cfg, "pipeline"), "roi": _params(RoiParams, cfg, "roi"),
-            "tracker": _params(TrackerParams, cfg, "tracker"), "detectors": detectors, "fit": _params(FitParams, cfg, "fit")}
-
-
 @hydra.main(version_base="1.3", config_path=str(config_dir() / "localize"), config_name="localize")
 @exit_on_error("vehloc-localize")
 def main(cfg: DictConfig) -> None:
     out_dir = Path(HydraConfig.get().runtime.output_dir)
-    stages = stage_params(cfg)
+    stages = stage_params(OmegaConf.to_container(cfg, resolve=True))
     calibration = read_calibration(cfg.calibration)
     localizer = Localizer(VehicleClassifier.from_onnx(cfg.model), calibration, **stages)
     truth = read_scene_truth(cfg.truth) if cfg.truth else None
