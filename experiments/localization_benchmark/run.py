@@ -5,7 +5,7 @@ as Table 2 scores a case. Settings: `conf/localization_benchmark.yaml` (Hydra ov
 
     python experiments/localization_benchmark/run.py split=dev          # the development seeds
     python experiments/localization_benchmark/run.py split=heldout      # the held-out seeds: report these
-    python experiments/localization_benchmark/run.py split=both model=demo_data/model.onnx out=runs/bench
+    python experiments/localization_benchmark/run.py split=both classifier=demo_data/model.onnx out=runs/bench
 
 Writes into `out`: `cases.csv` (one row per case), `groups.csv` and `report.md` (the gates per split, the rates
 per model, colour, view, heading band, distance band and camera, the reasons), `errors.png` (error against

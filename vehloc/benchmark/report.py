@@ -34,6 +34,13 @@ def view_of(row: pd.Series) -> str:
     return next(name for limit, name in VIEWS if angle < limit)
 
 
+def flag(frame: pd.DataFrame, column: str) -> np.ndarray:
+    """A yes/no column as 1.0 and 0.0, 0.0 where it is missing (a method that gave no estimate)."""
+    if column not in frame:
+        return np.zeros(len(frame))
+    return frame[column].eq(True).to_numpy(dtype=float)
+
+
 def with_groups(cases: pd.DataFrame) -> pd.DataFrame:
     """The cases with their group columns and per-gate flags (NaN where a case is not in a gate's cases)."""
     frame = cases.copy()
@@ -44,13 +51,11 @@ def with_groups(cases: pd.DataFrame) -> pd.DataFrame:
     frame["distance_band"] = pd.cut(frame["distance_mm"], edges, labels=labels, include_lowest=True).astype(str)
     frame["localized"] = frame["localized"].astype(float)
     correct = frame["correct"].astype(bool) & frame["localized"].astype(bool)
-    frame["fit_within"] = np.where(correct, frame.get("fit_within", pd.Series(False, index=frame.index)).fillna(False)
-                                   .astype(float), np.nan)
+    frame["fit_within"] = np.where(correct, flag(frame, "fit_within"), np.nan)
     visible = frame["key_points_visible"].astype(bool)
     found = frame["key_point"].fillna("").astype(str).isin(["plate", "wheels"])
     frame["key_points_found"] = np.where(visible, found.astype(float), np.nan)
-    paper = frame.get("paper_within", pd.Series(False, index=frame.index)).fillna(False).astype(float)
-    frame["paper_within"] = np.where(visible, paper, np.nan)
+    frame["paper_within"] = np.where(visible, flag(frame, "paper_within"), np.nan)
     return frame
 
 

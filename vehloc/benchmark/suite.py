@@ -59,9 +59,9 @@ class BenchmarkSettings:
         for name in chosen:
             if not isinstance(first.get(name), int):
                 raise ConfigError(f"seeds.{name}: must be a whole number, got {first.get(name)!r}")
-        model = values.get("model")
+        model = values.get("classifier")
         if model is not None and not Path(model).is_file():
-            raise ConfigError(f"model={model}: no such file (an ONNX classifier from vehloc-export, or null for the true model)")
+            raise ConfigError(f"classifier={model}: no such file (an ONNX classifier from vehloc-export, or null for the true model)")
         try:
             cameras = cameras_from_config(values.get("cameras"))
             draw = build_params(DrawParams, values.get("draw"), "draw")

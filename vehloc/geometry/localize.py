@@ -6,10 +6,11 @@ each track keeps a few crops for its vote. When a vehicle is to be localized its
 together (track voting), the key points (plate, else wheels) place the box of the predicted model's
 dimensions (the paper's method), the predicted model's shape is fitted to its silhouette from there (the
 model fit; a moving vehicle points where it goes, so with `heading_from_motion` its heading is its recent
-path's and the fit finds only its position), and each estimate gets its 1-sigma uncertainty. A vehicle cut by
-the frame's edge, with neither plate nor wheels found, whose fit does not explain its silhouette, or that moves
-along a path too short or too irregular to tell its heading, or which way it goes (and shows no key points), is
-recorded as not localized, with the reason.
+path's and the fit finds only its position), and each estimate gets its 1-sigma uncertainty. A stopped vehicle
+with neither plate nor wheels found is fitted from its silhouette's lower outline instead (`fit_from_silhouette`).
+A vehicle cut by the frame's edge, whose fit does not explain its silhouette, or that moves along a path too
+short or too irregular to tell its heading, or which way it goes (and shows no key points), is recorded as not
+localized, with the reason.
 """
 
 from __future__ import annotations
@@ -243,20 +244,19 @@ class Localizer:
     def fit_starts(self, track: Track, mask: np.ndarray, roi: Box, travel: float | None,
                    motion: PathHeading | None) -> list[tuple[float, str]]:
         """Where the model fit starts when no key points are found, as (heading, start) pairs: a moving vehicle
-        from its path's heading and a stopped one from its travel's (`fit_from_travel`), a stopped one from its
-        silhouette's principal road direction and its perpendicular (`fit_from_silhouette`); none without the
-        fit, or when the road point under the box's bottom is unknown."""
+        from its path's heading and a stopped one from its travel's (`fit_from_travel`, when it travelled far
+        enough to tell), else a stopped one from its silhouette's principal road direction and its perpendicular
+        (`fit_from_silhouette`); none without the fit, or when the road point under the box's bottom is unknown."""
         nearest_mm = self.states[track.track_id].ground_points_mm
         if not (self.params.fit and nearest_mm and np.all(np.isfinite(nearest_mm[-1]))):
             return []
-        starts = []
         if self.params.fit_from_travel and travel is not None:
-            starts.append((travel if motion is None else motion.heading_deg, "travel"))
-        if self.params.fit_from_silhouette and motion is None:
-            offset = np.array([roi.x0, roi.y0], dtype=float)
-            starts += [(heading, "silhouette") for heading in
-                       silhouette_start_headings_deg(mask, offset, self.calibration.road_to_image)]
-        return starts
+            return [(travel if motion is None else motion.heading_deg, "travel")]
+        if not (self.params.fit_from_silhouette and motion is None):
+            return []
+        offset = np.array([roi.x0, roi.y0], dtype=float)
+        return [(heading, "silhouette") for heading in
+                silhouette_start_headings_deg(mask, offset, self.calibration.road_to_image)]
 
     def localize(self, track: Track, frame_index: int, frame_bgr: np.ndarray) -> VehicleRecord:
         """The record of one tracked vehicle at this frame."""

@@ -176,7 +176,7 @@ def _car(reader: _Reader, raw: Any, where: str, frame_count: int) -> CarTruth:
         tyre_contacts_mm=reader.array(raw, "tyre_contacts_mm", where, (4, 2)),
         footprint_corners_mm=reader.array(raw, "footprint_corners_mm", where, (4, 2)),
         plates={end: _plate(reader, reader.get(plates, end, f"{where}.plates"), f"{where}.plates.{end}")
-                for end in ("front", "rear") if isinstance(plates, dict) and end in plates},
+                for end in (("front", "rear") if plates else ())},
         poses=reader.value(raw, "poses", where, _per_frame(_pose, frame_count)),
         boxes=reader.value(raw, "boxes_xyxy_px", where, _per_frame(_box, frame_count)),
     )
