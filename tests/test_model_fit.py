@@ -9,7 +9,7 @@ import pytest
 from vehloc.data.boxes import Box
 from vehloc.data.shapes import VehicleShape
 from vehloc.geometry.camera import PinholeCamera
-from vehloc.geometry.model_fit import FitParams, fit_model, silhouette
+from vehloc.geometry.model_fit import FitParams, best_start, fit_model, silhouette
 from vehloc.geometry.placement import VehicleBox, axis_difference_deg
 from vehloc.synth.body import convex_parts_car_mm
 from vehloc.synth.catalog import model_by_id
@@ -69,3 +69,16 @@ def test_the_cuboid_silhouette_is_its_eight_corners_hull():
     x1, y1 = np.ceil(corners_px.max(axis=0)).astype(int)
     tight = Box.tight(mask)
     assert tight is not None and abs(tight.x0 - x0) <= 1 and abs(tight.y0 - y0) <= 1 and abs(tight.x1 - x1) <= 1 and abs(tight.y1 - y1) <= 1
+
+
+def test_the_coarse_search_picks_the_start_nearest_the_car():
+    """Starts every 500 mm along the road from 2 m before to 2 m beyond a rendered Spirior: the one at its true
+    centre overlaps its silhouette most and is the one picked."""
+    pose = CarPose(404.0, 10530.0, -3.76)
+    mask, model = rendered(9, pose)
+    roi = Box.tight(mask).enlarged(0.2, 1280, 720)
+    shape = VehicleShape(convex_parts_car_mm(model))
+    candidates = [VehicleBox(np.array([pose.x_mm, pose.y_mm + offset]), pose.heading_deg, model.length_mm,
+                             model.width_mm) for offset in np.arange(-2000.0, 2001.0, 500.0)]
+    picked = best_start(CAMERA, roi.crop(mask).astype(np.float32), roi, shape, candidates, 2)
+    np.testing.assert_array_equal(picked.centre_mm, [pose.x_mm, pose.y_mm])

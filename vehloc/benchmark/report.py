@@ -1,5 +1,5 @@
 """The benchmark's tables and figures: the gate's rates per split, the rates per group (model, colour, heading
-band, view, distance band, camera), error against heading and distance, and a contact sheet of the cases
+band, view, distance band, the road's resolution at the car, camera), error against heading and distance, and a contact sheet of the cases
 that fall short of a bar."""
 
 from __future__ import annotations
@@ -24,6 +24,9 @@ BARS = {"localized": 98.0, "fit_within": 95.0, "key_points_found": 90.0, "paper_
 """The issue's bars, in per cent of each gate's cases."""
 VIEWS = ((22.5, "front"), (67.5, "front quarter"), (112.5, "side"), (157.5, "rear quarter"), (180.1, "rear"))
 DISTANCE_BANDS_M = (5, 10, 20, 30, 40)
+RESOLUTION_BANDS_MM_PER_PX = (0, 25, 50, 100, 200, 10_000)
+"""Bands of the road's resolution at the car (mm one pixel spans there, in its worst direction): 1 % of a car's
+diagonal is about 50 mm, so beyond 50 mm/px the fit's bar is finer than a pixel."""
 
 
 def view_of(row: pd.Series) -> str:
@@ -49,6 +52,10 @@ def with_groups(cases: pd.DataFrame) -> pd.DataFrame:
     edges = np.array(DISTANCE_BANDS_M) * 1000.0
     labels = [f"{a}-{b} m" for a, b in zip(DISTANCE_BANDS_M, DISTANCE_BANDS_M[1:])]
     frame["distance_band"] = pd.cut(frame["distance_mm"], edges, labels=labels, include_lowest=True).astype(str)
+    if "road_mm_per_px" in frame:
+        bands = RESOLUTION_BANDS_MM_PER_PX
+        names = [f"{a}-{b} mm/px" if b < bands[-1] else f"> {a} mm/px" for a, b in zip(bands, bands[1:])]
+        frame["resolution_band"] = pd.cut(frame["road_mm_per_px"], bands, labels=names).astype(str)
     frame["localized"] = frame["localized"].astype(float)
     correct = frame["correct"].astype(bool) & frame["localized"].astype(bool)
     frame["fit_within"] = np.where(correct, flag(frame, "fit_within"), np.nan)
@@ -134,7 +141,8 @@ def write_report(frame: pd.DataFrame, out_dir: Path, title: str, cells: Sequence
     """`cases.csv`, `groups.csv`, `report.md`, `errors.png` and `failures.png` (when a case falls short)."""
     grouped = with_groups(frame)
     group_tables = {by: rates(grouped, ["split", by]) for by in
-                    ("model", "colour_group", "view", "heading_band", "distance_band", "camera_name")}
+                    ("model", "colour_group", "view", "heading_band", "distance_band", "resolution_band", "camera_name")
+                    if by in grouped}
     groups = pd.concat([t.rename(columns={by: "group"}).assign(by=by) for by, t in group_tables.items()],
                        ignore_index=True)
     written = [write_text(out_dir / "cases.csv", grouped.to_csv(index=False, float_format="%.3f")),

@@ -1,13 +1,16 @@
-"""One benchmark case end to end: its scene rendered frame by frame into the localization pipeline (the camera's
-exact calibration, the default settings of `conf/localize/`), the stopped car's record matched as Table 2
+"""One benchmark case end to end: its scene rendered into a video as `vehloc-scene` writes one (a temporary file)
+and read frame by frame into the localization pipeline (the camera's exact calibration, the settings of
+`conf/localize/`), the stopped car's record matched as Table 2
 matches it, and one row of results: what was visible, localized or not and why, the key point, and both
 methods' errors as Table 2 defines them."""
 
 from __future__ import annotations
 
+import tempfile
 import time
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass
+from pathlib import Path
 from typing import Any
 
 import cv2
@@ -23,10 +26,12 @@ from vehloc.geometry.localize import LOCALIZED, Localizer, VehicleRecord
 from vehloc.geometry.placement import VehicleBox
 from vehloc.geometry.site_calibration import CameraCalibration
 from vehloc.geometry.table2 import pose_error, true_box_from_tyres
+from vehloc.geometry.uncertainty import road_mm_per_px
+from vehloc.geometry.video import iter_frames
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.synth.catalog import model_by_id
 from vehloc.synth.render import tyre_contacts_car_mm
-from vehloc.synth.scene import CameraSpec, SceneSpec, render_frames
+from vehloc.synth.scene import CameraSpec, SceneSpec, write_video
 
 FIT_POSITION_PCT, FIT_HEADING_DEG = 1.0, 1.0
 """The model fit's bar: within 1 % of the diagonal and 1 deg."""
@@ -68,16 +73,20 @@ class StoppedCarRun:
     frames: int
 
 
-def localize_stopped_car(spec: SceneSpec, localizer: Localizer) -> StoppedCarRun:
-    """Render `spec` into `localizer` until the record of its stopped car: the first at or after its stop
-    whose box overlaps the car's by `MIN_MATCH_IOU` (Table 2's rule)."""
+def localize_stopped_car(spec: SceneSpec, localizer: Localizer, folder: Path) -> StoppedCarRun:
+    """Render `spec` into a video in `folder` (its codec, as `vehloc-scene` writes it) and feed its frames to
+    `localizer` until the record of its stopped car: the first at or after its stop whose box overlaps the car's
+    by `MIN_MATCH_IOU` (Table 2's rule)."""
+    video = folder / f"{spec.name}.avi"
+    boxes = write_video(spec, video)
     stop_frame = spec.stop_frame(spec.cars[0])
-    frame_index, frame_bgr, boxes = -1, None, (None,)
-    for frame_index, (frame_bgr, boxes) in enumerate(render_frames(spec)):
+    frame_index, frame_bgr = -1, None
+    for frame_index, frame_bgr in enumerate(iter_frames(video)):
+        truth_box = boxes[frame_index][0]
         for record in localizer.process(frame_index, frame_bgr):
-            if frame_index >= stop_frame and boxes[0] is not None and record.box_px.iou(boxes[0]) >= MIN_MATCH_IOU:
-                return StoppedCarRun(record, frame_bgr, boxes[0], frame_index + 1)
-    return StoppedCarRun(None, frame_bgr, boxes[0], frame_index + 1)
+            if frame_index >= stop_frame and truth_box is not None and record.box_px.iou(truth_box) >= MIN_MATCH_IOU:
+                return StoppedCarRun(record, frame_bgr, truth_box, frame_index + 1)
+    return StoppedCarRun(None, frame_bgr, boxes[frame_index][0], frame_index + 1)
 
 
 def errors(prefix: str, estimated: VehicleBox, truth: VehicleBox) -> dict[str, object]:
@@ -106,7 +115,9 @@ def case_row(case: BenchmarkCase, split: str, seen: Visibility, record: VehicleR
         row |= errors("paper", paper.box, truth)
         row["paper_within"] = bool(row["paper_position_pct"] <= 2.85 and row["paper_heading_deg"] <= 2.5)
     if fit is not None:
-        row |= errors("fit", fit.box, truth) | {"fit_iou": fit.iou}
+        row |= errors("fit", fit.box, truth) | {"fit_iou": fit.iou, "fit_start": fit.start,
+                                                "fit_sigma_position_mm": fit.uncertainty.position_mm,
+                                                "fit_sigma_heading_deg": fit.uncertainty.heading_deg}
         row["fit_within"] = bool(row["fit_position_pct"] <= FIT_POSITION_PCT and row["fit_heading_deg"] <= FIT_HEADING_DEG)
     return row
 
@@ -142,10 +153,12 @@ def run_case(case: BenchmarkCase, split: str, site: Mapping[str, Any], camera: C
     model = model_by_id(case.model_id)
     seen = visibility(model, case.pose, camera.camera(), case.plates, seen_params)
     localizer = Localizer(classifier or TrueModelClassifier(case.model_id), exact_calibration(camera), **(stages or {}))
-    run = localize_stopped_car(spec, localizer)
+    with tempfile.TemporaryDirectory(prefix="vehloc-benchmark-") as folder:
+        run = localize_stopped_car(spec, localizer, Path(folder))
+    mm_per_px = road_mm_per_px(camera.camera().road_to_image(), true_box(case).centre_mm)
     row = case_row(case, split, seen, run.record) | {
-        "camera_x_mm": camera.position_mm[0], "camera_y_mm": camera.position_mm[1], "frames": run.frames,
-        "seconds": time.perf_counter() - start}
+        "camera_x_mm": camera.position_mm[0], "camera_y_mm": camera.position_mm[1], "road_mm_per_px": mm_per_px,
+        "frames": run.frames, "seconds": time.perf_counter() - start}
     if not falls_short(row):
         return CaseOutcome(row, None)
     return CaseOutcome(row, picture(run.frame_bgr, case, camera, run.record, run.truth_box_px))

@@ -23,9 +23,10 @@ import numpy as np
 
 from vehloc.config import build_params, check_range, params_from_config
 from vehloc.data.boxes import Box
+from vehloc.data.specs import VehicleSpec
 from vehloc.errors import VehlocError
 from vehloc.geometry.keypoints import DetectorParams, NotLocalized, paper_placement
-from vehloc.geometry.model_fit import FitParams, fit_model
+from vehloc.geometry.model_fit import FitParams, best_start, fit_model
 from vehloc.geometry.motion import PathHeading, path_heading, recent_path
 from vehloc.geometry.placement import VehicleBox, direction_of, facing, heading_of
 from vehloc.geometry.projective import HorizonError
@@ -76,6 +77,7 @@ class PipelineParams:
     fit: bool
     fit_from_travel: bool
     fit_from_silhouette: bool
+    silhouette_search_mm: tuple[float, float, float]
     heading_from_motion: bool
     motion_window_frames: int
     motion_max_gap_frames: int
@@ -91,6 +93,8 @@ class PipelineParams:
         check_range("max_motion_sigma_deg", self.max_motion_sigma_deg, 0.0)
         check_range("min_speed_sigmas", self.min_speed_sigmas, 0.0)
         check_range("min_fit_iou", self.min_fit_iou, 0.0, 1.0)
+        check_range("silhouette_search_mm step", self.silhouette_search_mm[2], 0.0, low_open=True)
+        check_range("silhouette_search_mm", self.silhouette_search_mm[0], None, self.silhouette_search_mm[1])
 
     @classmethod
     def from_config(cls, **overrides: object) -> PipelineParams:
@@ -258,6 +262,23 @@ class Localizer:
         return [(heading, "silhouette") for heading in
                 silhouette_start_headings_deg(mask, offset, self.calibration.road_to_image)]
 
+    def _start_box(self, track: Track, spec: VehicleSpec, heading_deg: float, start: str, weights: np.ndarray,
+                   roi: Box) -> VehicleBox:
+        """The box a fit without key points starts from: its footprint's nearest point the road point under the box's
+        bottom (`travel_start_box`); from the silhouette, the best overlap of the boxes moved from there along the
+        line of sight by `pipeline.silhouette_search_mm` (a shadow or a lost bumper moves the box's bottom)."""
+        foot = self.calibration.camera.centre_mm[:2]
+        nearest_mm = self.states[track.track_id].ground_points_mm[-1]
+        box = travel_start_box(nearest_mm, foot, spec.length_mm, spec.width_mm, heading_deg)
+        if start != "silhouette":
+            return box
+        sight = (nearest_mm - foot) / np.linalg.norm(nearest_mm - foot)
+        low_mm, high_mm, step_mm = self.params.silhouette_search_mm
+        candidates = [replace(box, centre_mm=box.centre_mm + offset * sight)
+                      for offset in np.arange(low_mm, high_mm + step_mm / 2, step_mm)]
+        return best_start(self.calibration.camera, weights, roi, self.classifier.metadata.shape_of(spec.model_id),
+                          candidates, self.fit_params.supersample)
+
     def localize(self, track: Track, frame_index: int, frame_bgr: np.ndarray) -> VehicleRecord:
         """The record of one tracked vehicle at this frame."""
         box = track.box
@@ -290,11 +311,10 @@ class Localizer:
             starts = self.fit_starts(track, silhouette.mask, roi, travel, motion)
             if not starts:
                 return replace(record, status=NOT_LOCALIZED, reason=str(why))
-            nearest_mm = self.states[track.track_id].ground_points_mm[-1]
             with self.clock.stage("model fit"):
-                fits = [self._fit(travel_start_box(nearest_mm, self.calibration.camera.centre_mm[:2], spec.length_mm,
-                                                   spec.width_mm, heading), silhouette.weights, roi, probabilities,
-                                  travel, motion, start) for heading, start in starts]
+                fits = [self._fit(self._start_box(track, spec, heading, start, silhouette.weights, roi),
+                                  silhouette.weights, roi, probabilities, travel, motion, start)
+                        for heading, start in starts]
             fit = max(fits, key=lambda estimate: estimate.iou)
             if fit.iou < self.params.min_fit_iou:
                 return replace(record, status=NOT_LOCALIZED, reason=joined(str(why), poor_fit(fit)))
@@ -322,9 +342,10 @@ class Localizer:
 
     def _fit(self, start: VehicleBox, weights: np.ndarray, roi: Box, probabilities: np.ndarray,
              travel: float | None, motion: PathHeading | None, start_kind: str = "key points") -> Estimate:
-        """The predicted model's shape fitted from `start` (the paper's placement), its heading held at the
-        path's when the vehicle moves; its uncertainty from refitting the other probable models' shapes, and
-        the path heading's own."""
+        """The predicted model's shape fitted from `start` (the paper's placement), facing the way a stopped
+        vehicle came when its track travelled far enough to tell (else both ways tried, the better overlap kept),
+        its heading held at the path's when the vehicle moves; its uncertainty from refitting the other probable
+        models' shapes, and the path heading's own."""
         camera, metadata = self.calibration.camera, self.classifier.metadata
         order = np.argsort(-probabilities, kind="stable")[: self.params.uncertainty_top_k]
         candidates = [i for i in order if i == order[0] or probabilities[i] >= self.params.uncertainty_min_probability]
@@ -336,6 +357,8 @@ class Localizer:
             params = self.fit_params
             if fits:  # the other models start facing the way the predicted one was fitted: front and rear are settled
                 begin, params = facing(begin, fits[0].box.heading_deg), replace(params, try_reversed=False)
+            elif travel is not None and motion is None:  # a stopped vehicle faces the way it came: only that is fitted
+                begin, params = facing(begin, travel), replace(params, try_reversed=False)
             fits.append(fit_model(camera, weights, roi, metadata.shape_of(spec.model_id), begin, params,
                                   fit_heading=motion is None))
         best = fits[0]

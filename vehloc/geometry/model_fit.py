@@ -121,3 +121,14 @@ def fit_model(
         fits.append((1.0 - float(result.fun), box_of(result.x, heading_deg), int(result.nfev)))
     iou, box, _ = max(fits, key=lambda fit: fit[0])
     return ModelFit(box, iou, sum(fit[2] for fit in fits))
+
+
+def best_start(camera: PinholeCamera, weights: np.ndarray, roi: Box, shape: VehicleShape,
+               candidates: list[VehicleBox], supersample: int) -> VehicleBox:
+    """Of the candidate starts, the one whose silhouette overlaps the foreground `weights` (as in `fit_model`)
+    most: a coarse search before the fit, for a start far from the vehicle."""
+    target = cv2.resize(np.asarray(weights, dtype=np.float32), (roi.width_px * supersample, roi.height_px * supersample),
+                        interpolation=cv2.INTER_NEAREST)
+    total = float(target.sum())
+    scores = [overlap(silhouette(camera, shape, box, roi, supersample), target, total) for box in candidates]
+    return candidates[int(np.argmax(scores))]

@@ -324,8 +324,9 @@ def ground_truth(spec: SceneSpec, boxes: Sequence[Sequence[Box | None]]) -> dict
     }
 
 
-def _write_video(spec: SceneSpec, path: Path) -> list[tuple[Box | None, ...]]:
-    """Render the scene into a video file; return every frame's car boxes."""
+def write_video(spec: SceneSpec, path: Path) -> list[tuple[Box | None, ...]]:
+    """Render the scene into a video file (its `codec`; the container by the path's suffix); return every frame's
+    car boxes."""
     size = (spec.camera.width_px, spec.camera.height_px)
     writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*CODECS[spec.codec]), spec.fps, size)
     if not writer.isOpened():
@@ -369,7 +370,7 @@ def write_scene(spec: SceneSpec, out_dir: Path, site_yaml: str | None = None) ->
     with atomic_paths(targets) as temporaries:
         staged = temporaries[0].with_name(temporaries[0].name + video_path.suffix)  # OpenCV picks the container by suffix
         try:
-            boxes = _write_video(spec, staged)
+            boxes = write_video(spec, staged)
             staged.replace(temporaries[0])
         finally:
             staged.unlink(missing_ok=True)
