@@ -43,6 +43,9 @@ class RoiParams:
     silhouette_shadow_ratio: tuple[float, float]
     silhouette_shadow_window_px: int
     silhouette_shadow_min_correlation: float
+    silhouette_covered_max_correlation: float
+    silhouette_covered_erode_px: int
+    silhouette_doubt_max_chroma: float
     silhouette_close_px: int
     silhouette_doubt_weight: float
     silhouette_smooth_ratio: float
@@ -130,7 +133,7 @@ def clean_mask(mask: np.ndarray, params: RoiParams) -> np.ndarray:
 @dataclass(frozen=True, eq=False)
 class Silhouette:
     """A vehicle's pixels in an ROI (bool mask), how sure each is (1, or `silhouette_doubt_weight` where the
-    pixel is only darker than the road and may be shadow the texture test could not tell), and which are
+    pixel is only darker than the road, of its chromaticity, and may be shadow the texture test could not tell), and which are
     solid: sure, or darker but smooth where the road has texture (a body face, not a shadow on the road)."""
 
     mask: np.ndarray
@@ -148,23 +151,35 @@ class Silhouette:
 
 
 def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: RoiParams) -> Silhouette:
-    """The vehicle's pixels in an ROI at full resolution, against the full-resolution background: colour
-    changed by more than `silhouette_threshold`, except cast shadow (uniformly darker by a ratio within
-    `silhouette_shadow_ratio` with the road's texture showing through), closed, holes filled, the largest
-    blob kept. Darker pixels are solid where their texture is below `silhouette_smooth_ratio` of the road's
-    there (darkened alike): a smooth body face, unless they form a speck of fewer than `silhouette_min_solid_px`
-    pixels (a deep shadow's compressed texture can look smooth here and there)."""
+    """The vehicle's pixels in an ROI at full resolution, against the full-resolution background.
+
+    A pixel is the vehicle's where its colour changed by more than `silhouette_threshold` (any channel) and it is
+    no cast shadow (uniformly darker by a ratio within `silhouette_shadow_ratio` with the road's texture showing
+    through: correlated with the background's over the window), or where the road has texture that no longer
+    shows (correlation below `silhouette_covered_max_correlation`: a body face of the road's colour; shrunk by
+    `silhouette_covered_erode_px`, as the window's reach would grow it onto the road). Closed, holes filled, the
+    largest blob kept. A pixel darker than the road that keeps its chromaticity (within
+    `silhouette_doubt_max_chroma`) may be shadow the texture test could not tell: it weighs
+    `silhouette_doubt_weight` in the fit (dark paint of a colour weighs 1). Darker pixels are solid where their
+    texture is below `silhouette_smooth_ratio` of the road's there (darkened alike): a smooth body face, unless
+    they form a speck of fewer than `silhouette_min_solid_px` pixels (a deep shadow's compressed texture can look
+    smooth here and there)."""
     frame = roi_bgr.astype(np.float32)
     background = background_bgr.astype(np.float32)
     changed = np.abs(frame - background).max(axis=2) > params.silhouette_threshold
-    ratio = (frame.sum(axis=2) + 1.0) / (background.sum(axis=2) + 1.0)
+    frame_sum, background_sum = frame.sum(axis=2) + 1.0, background.sum(axis=2) + 1.0
+    ratio = frame_sum / background_sum
     low, high = params.silhouette_shadow_ratio
     darker = (ratio >= low) & (ratio <= high)
     grey = cv2.cvtColor(roi_bgr, cv2.COLOR_BGR2GRAY)
     correlation, texture = local_correlation(grey, cv2.cvtColor(background_bgr, cv2.COLOR_BGR2GRAY),
                                              params.silhouette_shadow_window_px)
-    shadow = darker & (texture >= params.shadow_min_texture) & (correlation >= params.silhouette_shadow_min_correlation)
-    mask = ((changed & ~shadow) * 255).astype(np.uint8)
+    textured = texture >= params.shadow_min_texture
+    shadow = darker & textured & (correlation >= params.silhouette_shadow_min_correlation)
+    reach = params.silhouette_covered_erode_px
+    covered = cv2.erode((textured & (correlation < params.silhouette_covered_max_correlation)).astype(np.uint8),
+                        np.ones((2 * reach + 1,) * 2, np.uint8)) > 0
+    mask = (((changed & ~shadow) | covered) * 255).astype(np.uint8)
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (params.silhouette_close_px,) * 2)
     mask = cv2.morphologyEx(cv2.morphologyEx(mask, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)), cv2.MORPH_CLOSE, kernel)
     contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
@@ -173,10 +188,12 @@ def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: 
         cv2.drawContours(filled, [max(contours, key=cv2.contourArea)], -1, 255, cv2.FILLED)
     vehicle = filled > 0
     darker_than_road = ratio <= high
+    chroma_shift = np.abs(frame / frame_sum[..., None] - background / background_sum[..., None]).max(axis=2)
+    doubtful = darker_than_road & (chroma_shift < params.silhouette_doubt_max_chroma)
     window = params.silhouette_shadow_window_px
     smooth = local_std(grey, window) < params.silhouette_smooth_ratio * ratio * texture
     solid = without_specks(vehicle & (~darker_than_road | smooth), params.silhouette_min_solid_px)
-    return Silhouette(vehicle, np.where(vehicle, np.where(darker_than_road, params.silhouette_doubt_weight, 1.0), 0.0),
+    return Silhouette(vehicle, np.where(vehicle, np.where(doubtful, params.silhouette_doubt_weight, 1.0), 0.0),
                       solid, window // 2)
 
 
