@@ -81,3 +81,31 @@ def test_without_specks_drops_only_the_small_components() -> None:
 def test_the_speck_size_is_checked():
     with pytest.raises(ConfigError, match="silhouette_min_solid_px: must be >= 1, got 0"):
         RoiParams.from_config(silhouette_min_solid_px=0)
+
+
+def test_a_face_of_the_roads_colour_covers_the_road_to_within_a_pixel():
+    """A smooth face at the road's own mean level (no colour change to see) hides the road's grain: its inside,
+    beyond the texture window's reach and the erosion (3 + 2 px) and one more pixel, is the vehicle's, and the
+    mask reaches past the face's edges by at most a pixel; with the cue off, nothing of it is found."""
+    background = _road((100, 120), seed=1)
+    frame = background.copy()
+    frame[slice(*FACE_ROWS), slice(*FACE_COLUMNS)] = 120
+    mask = vehicle_silhouette(frame, background, RoiParams.from_config()).mask
+    inner = (slice(FACE_ROWS[0] + 6, FACE_ROWS[1] - 6), slice(FACE_COLUMNS[0] + 6, FACE_COLUMNS[1] - 6))
+    assert mask[inner].all()
+    grown = np.zeros_like(mask)
+    grown[FACE_ROWS[0] - 1:FACE_ROWS[1] + 1, FACE_COLUMNS[0] - 1:FACE_COLUMNS[1] + 1] = True
+    assert not (mask & ~grown).any()
+    assert not vehicle_silhouette(frame, background, RoiParams.from_config(silhouette_covered_max_correlation=-1.0)).mask.any()
+
+
+def test_dark_paint_of_a_colour_weighs_fully_and_dark_grey_is_doubted(scene: tuple[np.ndarray, np.ndarray]) -> None:
+    """Darker than the road, a dark red face shifts the chromaticity and is the vehicle's for the fit (weight 1);
+    the dark-grey face keeps the road's and may be shadow (the doubt weight)."""
+    frame, background = scene
+    red = frame.copy()
+    red[slice(*FACE_ROWS), slice(*FACE_COLUMNS)] = (40, 40, 110)  # BGR
+    params = RoiParams.from_config()
+    face = (slice(FACE_ROWS[0] + 4, FACE_ROWS[1] - 4), slice(FACE_COLUMNS[0] + 4, FACE_COLUMNS[1] - 4))
+    assert (vehicle_silhouette(red, background, params).weights[face] == 1.0).all()
+    assert (vehicle_silhouette(frame, background, params).weights[face] == params.silhouette_doubt_weight).all()

@@ -12,6 +12,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from vehloc.atomic import atomic_path, write_image, write_text
+from vehloc.geometry.drawing import METHOD_STYLES
 from vehloc.tables import markdown_table
 
 GATES = {
@@ -99,24 +100,25 @@ def error_figure(frame: pd.DataFrame, path: Path) -> Path:
     axes = fig.subplots(2, 2)
     angle = frame.apply(lambda r: abs((r["heading_deg"] - np.degrees(np.arctan2(r["camera_y_mm"] - r["y_mm"],
                                                                                r["camera_x_mm"] - r["x_mm"])) + 180) % 360 - 180), axis=1)
-    for method, colour, marker in (("paper", "tab:green", "x"), ("fit", "tab:blue", "+")):
+    for method in ("paper", "fit"):
+        colour, marker, name = METHOD_STYLES[method]
         column = f"{method}_position_pct"
         if column not in frame:
             continue
         for col, (x, label) in enumerate(((angle, "angle between the car's front and the camera (deg)"),
                                           (frame["distance_mm"] / 1000.0, "distance from the camera's foot (m)"))):
-            axes[0, col].scatter(x, frame[column].clip(1e-3), s=12, c=colour, marker=marker, label=method)
-            axes[1, col].scatter(x, frame[f"{method}_heading_deg"].clip(1e-3), s=12, c=colour, marker=marker, label=method)
+            axes[0, col].scatter(x, frame[column].clip(1e-3), s=12, c=colour, marker=marker, label=name)
+            axes[1, col].scatter(x, frame[f"{method}_heading_deg"].clip(1e-3), s=12, c=colour, marker=marker, label=name)
             axes[1, col].set_xlabel(label)
     for row, (bar_fit, bar_paper, name) in enumerate(((1.0, 2.85, "position error (% of the diagonal)"),
                                                        (1.0, 2.5, "heading error (deg)"))):
         for ax in axes[row]:
             ax.set_yscale("log")
-            ax.axhline(bar_fit, color="tab:blue", linewidth=0.8, linestyle="--")
-            ax.axhline(bar_paper, color="tab:green", linewidth=0.8, linestyle="--")
+            ax.axhline(bar_fit, color=METHOD_STYLES["fit"][0], linewidth=0.8, linestyle="--", label="model fit's bar")
+            ax.axhline(bar_paper, color=METHOD_STYLES["paper"][0], linewidth=0.8, linestyle="--", label="paper's figures")
             ax.set_ylabel(name)
             ax.grid(alpha=0.3)
-    axes[0, 0].legend(["fit bar", "paper bar", "paper's method", "model fit"], fontsize=8)
+    axes[0, 0].legend(fontsize=8)
     fig.suptitle(f"{len(frame)} cases: errors of the localized ones (dashed: the bars)")
     fig.tight_layout()
     with atomic_path(path) as temporary:
