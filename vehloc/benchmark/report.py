@@ -52,11 +52,11 @@ def with_groups(cases: pd.DataFrame) -> pd.DataFrame:
     frame["heading_band"] = (frame["heading_deg"] // 45 * 45).astype(int).map(lambda d: f"{d}-{d + 45}")
     edges = np.array(DISTANCE_BANDS_M) * 1000.0
     labels = [f"{a}-{b} m" for a, b in zip(DISTANCE_BANDS_M, DISTANCE_BANDS_M[1:])]
-    frame["distance_band"] = pd.cut(frame["distance_mm"], edges, labels=labels, include_lowest=True).astype(str)
+    frame["distance_band"] = pd.cut(frame["distance_mm"], edges, labels=labels, include_lowest=True)
     if "road_mm_per_px" in frame:
         bands = RESOLUTION_BANDS_MM_PER_PX
         names = [f"{a}-{b} mm/px" if b < bands[-1] else f"> {a} mm/px" for a, b in zip(bands, bands[1:])]
-        frame["resolution_band"] = pd.cut(frame["road_mm_per_px"], bands, labels=names).astype(str)
+        frame["resolution_band"] = pd.cut(frame["road_mm_per_px"], bands, labels=names)
     frame["localized"] = frame["localized"].astype(float)
     correct = frame["correct"].astype(bool) & frame["localized"].astype(bool)
     frame["fit_within"] = np.where(correct, flag(frame, "fit_within"), np.nan)
@@ -71,7 +71,7 @@ def rates(frame: pd.DataFrame, by: Sequence[str]) -> pd.DataFrame:
     """Per group: the number of cases and each gate's rate in per cent (over the gate's own cases), with its
     count of cases in brackets in `<gate>_cases`."""
     rows = []
-    for key, group in frame.groupby(list(by), sort=True):
+    for key, group in frame.groupby(list(by), sort=True, observed=True):
         key = key if isinstance(key, tuple) else (key,)
         row = dict(zip(by, key)) | {"cases": len(group)}
         for gate in GATES:
