@@ -168,3 +168,20 @@ def test_a_car_without_plates_differs_from_one_with_them_only_where_its_plate_is
     assert len(changed) > 100
     assert np.all(changed >= corners.min(axis=0) - 2) and np.all(changed <= corners.max(axis=0) + 2)
     assert without.plates == {} and set(with_plates.plates) == {"front", "rear"}
+
+
+@pytest.mark.parametrize(("method", "offset_pct", "turn_deg", "within"), [
+    ("fit", 0.9, 0.0, True), ("fit", 1.1, 0.0, False), ("fit", 0.0, 1.1, False),
+    ("paper", 2.8, 2.4, True), ("paper", 2.9, 0.0, False), ("paper", 0.0, 2.6, False)])
+def test_each_method_is_held_to_its_own_bar(method: str, offset_pct: float, turn_deg: float, within: bool):
+    """The fit within 1 % of the diagonal and 1 deg, the paper's method within its own 2.85 % and 2.5 deg."""
+    from vehloc.benchmark.runner import errors
+    from vehloc.geometry.placement import VehicleBox
+
+    truth = VehicleBox(np.array([0.0, 10000.0]), 30.0, 4800.0, 1850.0)
+    shift_mm = offset_pct / 100.0 * np.hypot(4800.0, 1850.0)
+    moved = VehicleBox(truth.centre_mm + [shift_mm, 0.0], 30.0 + turn_deg, 4800.0, 1850.0)
+    row = errors(method, moved, truth)
+    assert row[f"{method}_position_pct"] == pytest.approx(offset_pct, abs=1e-9)
+    assert row[f"{method}_heading_deg"] == pytest.approx(turn_deg, abs=1e-9)
+    assert row[f"{method}_within"] is within
