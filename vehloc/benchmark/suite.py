@@ -3,6 +3,7 @@ side by side in worker processes, each case's row (and picture, where it falls s
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 from collections.abc import Callable, Iterator, Mapping
 from concurrent.futures import ProcessPoolExecutor
@@ -138,7 +139,9 @@ def run_benchmark(settings: BenchmarkSettings, report: Callable[[int, int, CaseO
             yield outcome
         return
     os.environ.setdefault("OMP_NUM_THREADS", "1")
-    with ProcessPoolExecutor(settings.workers, initializer=_start_worker, initargs=(settings.model,)) as pool:
+    spawn = multiprocessing.get_context("spawn")  # a forked child of a process with OpenMP threads can hang
+    with ProcessPoolExecutor(settings.workers, mp_context=spawn, initializer=_start_worker,
+                             initargs=(settings.model,)) as pool:
         futures = [pool.submit(_run, settings, split, case) for split, case in cases]
         for number, future in enumerate(futures, 1):
             outcome = future.result()
