@@ -14,7 +14,7 @@ import numpy as np
 
 from vehloc.config import SettingError, build_params, check_range
 from vehloc.synth.body import build_car_mesh
-from vehloc.synth.catalog import CATALOG, RGB
+from vehloc.synth.catalog import CATALOG, RGB, model_by_id
 from vehloc.synth.render import CarPose
 from vehloc.synth.road import RoadLayout
 from vehloc.synth.scene import CameraSpec, CarSpec, SceneSpec
@@ -84,7 +84,7 @@ class BenchmarkCase:
 
 def colour_group(rgb: RGB) -> str:
     """`white`, `black`, `grey` or `saturated`: a paint's group by its HSV saturation and value."""
-    hue, saturation, value = colorsys.rgb_to_hsv(*(c / 255.0 for c in rgb))
+    _, saturation, value = colorsys.rgb_to_hsv(*(c / 255.0 for c in rgb))
     if saturation >= 0.35 and value >= 0.2:
         return "saturated"
     if value < 0.25:
@@ -102,7 +102,7 @@ def cameras_from_config(values: Mapping[str, Any]) -> dict[str, CameraSpec]:
 def in_view(camera: CameraSpec, model_id: int, pose: CarPose, margin_px: float) -> bool:
     """Whether every vertex of the car's body at `pose` lies in front of the camera and at least `margin_px`
     inside the image."""
-    model = next(m for m in CATALOG if m.model_id == model_id)
+    model = model_by_id(model_id)
     pinhole = camera.camera()
     vertices = pose.car_to_world(build_car_mesh(model).vertices_mm)
     if np.any(pinhole.to_camera(vertices)[:, 2] <= 100.0):

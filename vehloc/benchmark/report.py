@@ -1,6 +1,6 @@
 """The benchmark's tables and figures: the gate's rates per split, the rates per group (model, colour, heading
-band, view, distance band, the road's resolution at the car, camera), error against heading and distance, and a contact sheet of the cases
-that fall short of a bar."""
+band, view, distance band, the road's resolution at the car, camera), error against the view angle and distance,
+and a contact sheet of the cases that fall short of a bar."""
 
 from __future__ import annotations
 
@@ -30,11 +30,16 @@ RESOLUTION_BANDS_MM_PER_PX = (0, 25, 50, 100, 200, 10_000)
 diagonal is about 50 mm, so beyond 50 mm/px the fit's bar is finer than a pixel."""
 
 
-def view_of(row: pd.Series) -> str:
-    """How the car shows itself: the angle between its front and the direction from it to the camera's foot
-    (`front` 0-22.5 deg, `front quarter`, `side`, `rear quarter`, `rear` 157.5-180 deg)."""
+def view_angle_deg(row: pd.Series) -> float:
+    """The angle (deg, 0-180) between the car's front and the direction from it to the camera's foot."""
     sight = np.degrees(np.arctan2(row["camera_y_mm"] - row["y_mm"], row["camera_x_mm"] - row["x_mm"]))
-    angle = abs((row["heading_deg"] - sight + 180.0) % 360.0 - 180.0)
+    return abs((row["heading_deg"] - sight + 180.0) % 360.0 - 180.0)
+
+
+def view_of(row: pd.Series) -> str:
+    """How the car shows itself, by `view_angle_deg`: `front` 0-22.5 deg, `front quarter`, `side`,
+    `rear quarter`, `rear` 157.5-180 deg."""
+    angle = view_angle_deg(row)
     return next(name for limit, name in VIEWS if angle < limit)
 
 
@@ -98,8 +103,7 @@ def error_figure(frame: pd.DataFrame, path: Path) -> Path:
     """Each method's position % and heading error against the case's view angle and distance."""
     fig = Figure(figsize=(11, 7))
     axes = fig.subplots(2, 2)
-    angle = frame.apply(lambda r: abs((r["heading_deg"] - np.degrees(np.arctan2(r["camera_y_mm"] - r["y_mm"],
-                                                                               r["camera_x_mm"] - r["x_mm"])) + 180) % 360 - 180), axis=1)
+    angle = frame.apply(view_angle_deg, axis=1)
     for method in ("paper", "fit"):
         colour, marker, name = METHOD_STYLES[method]
         column = f"{method}_position_pct"

@@ -1,7 +1,6 @@
 """One benchmark case end to end: its scene rendered into a video as `vehloc-scene` writes one (a temporary file)
 and read frame by frame into the localization pipeline (the camera's exact calibration, the settings of
-`conf/localize/`), the stopped car's record matched as Table 2
-matches it, and one row of results: what was visible, localized or not and why, the key point, and both
+`conf/localize/`), the stopped car's record matched as Table 2 matches it, and one row of results: what was visible, localized or not and why, the key point, and both
 methods' errors as Table 2 defines them."""
 
 from __future__ import annotations
@@ -20,6 +19,7 @@ from vehloc.benchmark.cases import BenchmarkCase, DrawParams
 from vehloc.benchmark.oracle import TrueModelClassifier
 from vehloc.benchmark.visibility import TYRE_NAMES, Visibility, VisibilityParams, visibility
 from vehloc.data.boxes import Box
+from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.drawing import METHOD_COLOURS_BGR, draw_cuboid
 from vehloc.geometry.evaluation import MIN_MATCH_IOU
 from vehloc.geometry.localize import LOCALIZED, Localizer, VehicleRecord
@@ -132,15 +132,14 @@ def falls_short(row: dict[str, object]) -> bool:
     return bool(row["key_points_visible"]) and not row.get("paper_within", False)
 
 
-def picture(frame_bgr: np.ndarray, case: BenchmarkCase, camera: CameraSpec, record: VehicleRecord | None,
+def picture(frame_bgr: np.ndarray, case: BenchmarkCase, camera: PinholeCamera, record: VehicleRecord | None,
             truth_px: Box | None) -> np.ndarray:
     """The car's part of the frame with the true box (red) and the estimates (the methods' colours) drawn."""
     image = frame_bgr.copy()
-    pinhole = camera.camera()
     height_mm = model_by_id(case.model_id).height_mm
-    draw_cuboid(image, pinhole, true_box(case), height_mm, METHOD_COLOURS_BGR["truth"], 1)
+    draw_cuboid(image, camera, true_box(case), height_mm, METHOD_COLOURS_BGR["truth"], 1)
     for estimate in record.estimates if record is not None else ():
-        draw_cuboid(image, pinhole, estimate.box, height_mm, METHOD_COLOURS_BGR[estimate.method], 1)
+        draw_cuboid(image, camera, estimate.box, height_mm, METHOD_COLOURS_BGR[estimate.method], 1)
     around = truth_px or Box(0, 0, camera.width_px, camera.height_px)
     return around.enlarged(PICTURE_MARGIN, camera.width_px, camera.height_px).crop(image).copy()
 
@@ -152,18 +151,18 @@ def run_case(case: BenchmarkCase, split: str, site: Mapping[str, Any], camera: C
     defaults); `classifier` None gives the car's true model (the geometry alone)."""
     start = time.perf_counter()
     spec = case.scene_spec(site, camera, draw)
-    model = model_by_id(case.model_id)
-    seen = visibility(model, case.pose, camera.camera(), case.plates, seen_params)
-    localizer = Localizer(classifier or TrueModelClassifier(case.model_id), exact_calibration(camera), **(stages or {}))
+    calibration = exact_calibration(camera)
+    seen = visibility(model_by_id(case.model_id), case.pose, calibration.camera, case.plates, seen_params)
+    localizer = Localizer(classifier or TrueModelClassifier(case.model_id), calibration, **(stages or {}))
     with tempfile.TemporaryDirectory(prefix="vehloc-benchmark-") as folder:
         run = localize_stopped_car(spec, localizer, Path(folder))
-    mm_per_px = road_mm_per_px(camera.camera().road_to_image(), true_box(case).centre_mm)
+    mm_per_px = road_mm_per_px(calibration.road_to_image, true_box(case).centre_mm)
     row = case_row(case, split, seen, run.record) | {
         "camera_x_mm": camera.position_mm[0], "camera_y_mm": camera.position_mm[1], "road_mm_per_px": mm_per_px,
         "frames": run.frames, "seconds": time.perf_counter() - start}
     if not falls_short(row):
         return CaseOutcome(row, None)
-    return CaseOutcome(row, picture(run.frame_bgr, case, camera, run.record, run.truth_box_px))
+    return CaseOutcome(row, picture(run.frame_bgr, case, calibration.camera, run.record, run.truth_box_px))
 
 
 def thumbnail(image_bgr: np.ndarray, size_px: tuple[int, int], caption: str) -> np.ndarray:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -79,11 +80,30 @@ class BenchmarkSettings:
 _worker_classifier: VehicleClassifier | None = None
 
 
-def _start_worker(model: Path | None) -> None:
-    """One thread per worker; the classifier loaded once."""
+def _load_classifier(model: Path | None) -> None:
+    """The classifier the cases of this process use, loaded once (None: each car's true model)."""
     global _worker_classifier
-    cv2.setNumThreads(1)
     _worker_classifier = None if model is None else VehicleClassifier.from_onnx(model)
+
+
+def _start_worker(model: Path | None) -> None:
+    """A worker process: one OpenCV thread (the workers share the cores), its classifier."""
+    cv2.setNumThreads(1)
+    _load_classifier(model)
+
+
+@contextmanager
+def single_threaded_children() -> Iterator[None]:
+    """OpenMP one thread in the processes started inside, the caller's environment restored after."""
+    before = os.environ.get("OMP_NUM_THREADS")
+    os.environ["OMP_NUM_THREADS"] = "1"
+    try:
+        yield
+    finally:
+        if before is None:
+            del os.environ["OMP_NUM_THREADS"]
+        else:
+            os.environ["OMP_NUM_THREADS"] = before
 
 
 def _run(settings: BenchmarkSettings, split: str, case: BenchmarkCase) -> CaseOutcome:
@@ -131,18 +151,18 @@ def run_benchmark(settings: BenchmarkSettings, report: Callable[[int, int, CaseO
     of each as it completes (its number, the total, the outcome)."""
     cases = drawn_cases(settings)
     if settings.workers == 1:
-        _start_worker(settings.model)
+        _load_classifier(settings.model)
         for number, (split, case) in enumerate(cases, 1):
             outcome = _run(settings, split, case)
             if report:
                 report(number, len(cases), outcome)
             yield outcome
         return
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
     spawn = multiprocessing.get_context("spawn")  # a forked child of a process with OpenMP threads can hang
     with ProcessPoolExecutor(settings.workers, mp_context=spawn, initializer=_start_worker,
                              initargs=(settings.model,)) as pool:
-        futures = [pool.submit(_run, settings, split, case) for split, case in cases]
+        with single_threaded_children():  # the workers start as the cases are submitted
+            futures = [pool.submit(_run, settings, split, case) for split, case in cases]
         for number, future in enumerate(futures, 1):
             outcome = future.result()
             if report:

@@ -246,21 +246,21 @@ class Localizer:
         return "front" if np.linalg.norm(points[-1] - foot) < np.linalg.norm(points[0] - foot) else "rear"
 
     def fit_starts(self, track: Track, mask: np.ndarray, roi: Box, travel: float | None,
-                   motion: PathHeading | None) -> list[tuple[float, str]]:
-        """Where the model fit starts when no key points are found, as (heading, start) pairs: a moving vehicle
-        from its path's heading and a stopped one from its travel's (`fit_from_travel`, when it travelled far
-        enough to tell), else a stopped one from its silhouette's principal road direction and its perpendicular
-        (`fit_from_silhouette`); none without the fit, or when the road point under the box's bottom is unknown."""
+                   motion: PathHeading | None) -> tuple[str, list[float]]:
+        """Where the model fit starts when no key points are found (`FIT_STARTS`) and the headings it starts from:
+        a moving vehicle from its path's heading and a stopped one from its travel's (`fit_from_travel`, when it
+        travelled far enough to tell), else a stopped one from its silhouette's principal road direction and its
+        perpendicular (`fit_from_silhouette`); no heading without the fit, or when the road point under the box's
+        bottom is unknown."""
         nearest_mm = self.states[track.track_id].ground_points_mm
         if not (self.params.fit and nearest_mm and np.all(np.isfinite(nearest_mm[-1]))):
-            return []
+            return "", []
         if self.params.fit_from_travel and travel is not None:
-            return [(travel if motion is None else motion.heading_deg, "travel")]
+            return "travel", [travel if motion is None else motion.heading_deg]
         if not (self.params.fit_from_silhouette and motion is None):
-            return []
+            return "", []
         offset = np.array([roi.x0, roi.y0], dtype=float)
-        return [(heading, "silhouette") for heading in
-                silhouette_start_headings_deg(mask, offset, self.calibration.road_to_image)]
+        return "silhouette", list(silhouette_start_headings_deg(mask, offset, self.calibration.road_to_image))
 
     def _start_box(self, track: Track, spec: VehicleSpec, heading_deg: float, start: str, weights: np.ndarray,
                    roi: Box) -> VehicleBox:
@@ -308,14 +308,12 @@ class Localizer:
         except (NotLocalized, HorizonError) as why:
             if unclear:
                 return replace(record, status=NOT_LOCALIZED, reason=joined(str(why), unclear))
-            starts = self.fit_starts(track, silhouette.mask, roi, travel, motion)
-            if not starts:
+            kind, headings = self.fit_starts(track, silhouette.mask, roi, travel, motion)
+            if not headings:
                 return replace(record, status=NOT_LOCALIZED, reason=str(why))
             with self.clock.stage("model fit"):
-                fits = [self._fit(self._start_box(track, spec, heading, start, silhouette.weights, roi),
-                                  silhouette.weights, roi, probabilities, travel, motion, start)
-                        for heading, start in starts]
-            fit = max(fits, key=lambda estimate: estimate.iou)
+                starts = [self._start_box(track, spec, heading, kind, silhouette.weights, roi) for heading in headings]
+                fit = self._fit(starts, silhouette.weights, roi, probabilities, travel, motion, kind)
             if fit.iou < self.params.min_fit_iou:
                 return replace(record, status=NOT_LOCALIZED, reason=joined(str(why), poor_fit(fit)))
             return replace(record, reason=joined(f"fit from the {FIT_STARTS[fit.start]} ({why})", record.reason),
@@ -325,7 +323,7 @@ class Localizer:
                                                                                          probabilities, placement.baseline_mm))]
         if self.params.fit:
             with self.clock.stage("model fit"):
-                fit = self._fit(paper_box, silhouette.weights, roi, probabilities, travel, motion)
+                fit = self._fit([paper_box], silhouette.weights, roi, probabilities, travel, motion)
             if fit.iou >= self.params.min_fit_iou:
                 estimates.append(fit)
             else:
@@ -340,36 +338,41 @@ class Localizer:
         spread = dimension_spread_mm(probabilities, self.classifier.metadata.dims_mm, self.params.uncertainty_top_k)
         return Uncertainty.combined(paper_dimension_part(kind, spread), self._calibration_part(box, baseline_mm))
 
-    def _fit(self, start: VehicleBox, weights: np.ndarray, roi: Box, probabilities: np.ndarray,
+    def _fit(self, starts: list[VehicleBox], weights: np.ndarray, roi: Box, probabilities: np.ndarray,
              travel: float | None, motion: PathHeading | None, start_kind: str = "key points") -> Estimate:
-        """The predicted model's shape fitted from `start` (the paper's placement), facing the way a stopped
-        vehicle came when its track travelled far enough to tell (else both ways tried, the better overlap kept),
-        its heading held at the path's when the vehicle moves; its uncertainty from refitting the other probable
-        models' shapes, and the path heading's own."""
+        """The predicted model's shape fitted from each of `starts` (the paper's placement, or the starts without
+        key points), the best overlap kept, facing the way a stopped vehicle came when its track travelled far
+        enough to tell (else both ways tried, the better overlap kept), its heading held at the path's when the
+        vehicle moves; its uncertainty from refitting the other probable models' shapes from the kept start, and
+        the path heading's own."""
         camera, metadata = self.calibration.camera, self.classifier.metadata
         order = np.argsort(-probabilities, kind="stable")[: self.params.uncertainty_top_k]
         candidates = [i for i in order if i == order[0] or probabilities[i] >= self.params.uncertainty_min_probability]
-        fits = []
-        for index in candidates:
-            spec = metadata.classes[index]
+        stopped_came_from = travel if travel is not None and motion is None else None
+
+        def begin_at(start: VehicleBox, spec: VehicleSpec, facing_deg: float | None) -> VehicleBox:
             begin = VehicleBox(start.centre_mm, start.heading_deg if motion is None else motion.heading_deg,
                                spec.length_mm, spec.width_mm)
-            params = self.fit_params
-            if fits:  # the other models start facing the way the predicted one was fitted: front and rear are settled
-                begin, params = facing(begin, fits[0].box.heading_deg), replace(params, try_reversed=False)
-            elif travel is not None and motion is None:  # a stopped vehicle faces the way it came: only that is fitted
-                begin, params = facing(begin, travel), replace(params, try_reversed=False)
-            fits.append(fit_model(camera, weights, roi, metadata.shape_of(spec.model_id), begin, params,
-                                  fit_heading=motion is None))
-        best = fits[0]
-        box = facing(best.box, travel) if travel is not None else best.box
+            return begin if facing_deg is None else facing(begin, facing_deg)
+
+        predicted = metadata.classes[candidates[0]]
+        params = self.fit_params if stopped_came_from is None else replace(self.fit_params, try_reversed=False)
+        tried = [(fit_model(camera, weights, roi, metadata.shape_of(predicted.model_id),
+                            begin_at(start, predicted, stopped_came_from), params, fit_heading=motion is None), start)
+                 for start in starts]  # a stopped vehicle faces the way it came: only that is fitted
+        first, start = max(tried, key=lambda pair: pair[0].iou)
+        fits = [first] + [  # the other models start facing the way the predicted one was fitted: front and rear are settled
+            fit_model(camera, weights, roi, metadata.shape_of(spec.model_id), begin_at(start, spec, first.box.heading_deg),
+                      replace(self.fit_params, try_reversed=False), fit_heading=motion is None)
+            for spec in (metadata.classes[index] for index in candidates[1:])]
+        box = facing(first.box, travel) if travel is not None else first.box
         dimensions = fitted_spread([f.box for f in fits], probabilities[candidates]) if len(fits) > 1 else (0.0, 0.0)
         if motion is None:
             uncertainty = Uncertainty.combined(dimensions, self._calibration_part(box, box.length_mm / 2))
         else:  # the heading is the path's: the calibration turns it over the path's extent, not over the car
             uncertainty = Uncertainty.combined(dimensions, self._calibration_part(box, motion.extent_mm),
                                                (0.0, motion.sigma_deg))
-        return Estimate("fit", box, None, uncertainty, best.iou, start_kind)
+        return Estimate("fit", box, None, uncertainty, first.iou, start_kind)
 
 
 def stage_params(values: Mapping[str, Any]) -> dict[str, object]:

@@ -78,6 +78,12 @@ def overlap(template: np.ndarray, weights: np.ndarray, weights_total: float | No
     return covered / union if union else 0.0
 
 
+def supersampled(weights: np.ndarray, roi: Box, supersample: int) -> np.ndarray:
+    """The foreground weights of `roi` on the grid the silhouettes are compared on (float32)."""
+    return cv2.resize(np.asarray(weights, dtype=np.float32), (roi.width_px * supersample, roi.height_px * supersample),
+                      interpolation=cv2.INTER_NEAREST)
+
+
 def fit_model(
     camera: PinholeCamera,
     weights: np.ndarray,
@@ -93,8 +99,7 @@ def fit_model(
     (or its reverse)."""
     params = params or FitParams.from_config()
     ss = params.supersample
-    target = cv2.resize(np.asarray(weights, dtype=np.float32), (roi.width_px * ss, roi.height_px * ss),
-                        interpolation=cv2.INTER_NEAREST)
+    target = supersampled(weights, roi, ss)
     target_total = float(target.sum())
 
     # Nelder-Mead stops on one tolerance for all coordinates: the heading is scaled to make it the angular one
@@ -127,8 +132,7 @@ def best_start(camera: PinholeCamera, weights: np.ndarray, roi: Box, shape: Vehi
                candidates: list[VehicleBox], supersample: int) -> VehicleBox:
     """Of the candidate starts, the one whose silhouette overlaps the foreground `weights` (as in `fit_model`)
     most: a coarse search before the fit, for a start far from the vehicle."""
-    target = cv2.resize(np.asarray(weights, dtype=np.float32), (roi.width_px * supersample, roi.height_px * supersample),
-                        interpolation=cv2.INTER_NEAREST)
+    target = supersampled(weights, roi, supersample)
     total = float(target.sum())
     scores = [overlap(silhouette(camera, shape, box, roi, supersample), target, total) for box in candidates]
     return candidates[int(np.argmax(scores))]
