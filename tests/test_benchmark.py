@@ -28,9 +28,10 @@ from vehloc.synth.scene import CameraSpec
 
 PROJECT_ROOT = Path(__file__).resolve().parents[1]
 GATE_SEEDS = 24
-GATE_LOCALIZED, GATE_FIT_WITHIN = 21, 10
-"""The subset reached 22 localized and 11 fits within 1 % and 1 deg (Intel Xeon); one case of each is the margin
-for another CPU's arithmetic."""
+GATE_LOCALIZED, GATE_FIT_WITHIN = 20, 9
+"""The subset reached 22 localized and 11 fits within 1 % and 1 deg (Intel Xeon); two cases of each are the margin
+for another CPU's arithmetic (four of its fits lie within 0.15 of a bar). The pipeline before the fit from the
+silhouette and the covered-road cue reached 7 and 5."""
 
 
 def composed(*overrides: str) -> dict:
