@@ -120,6 +120,9 @@ def test_the_true_box_is_the_footprint_at_the_stop(settings: BenchmarkSettings):
     ("cases=0", "cases: must be a whole number >= 1"),
     ("draw.plate_probability=1.5", "draw.plate_probability"),
     ("cameras.low_verge.focal_px=-3", "cameras.low_verge.focal_px"),
+    ("visibility.tyre_min_diameter_px=-1", "visibility.tyre_min_diameter_px"),
+    ("draw.margin_px=-2", "draw.margin_px"),
+    ("localize.roi.silhouette_covered_erode_px=-1", "roi.silhouette_covered_erode_px"),
     ("classifier=no_such_model.onnx", "classifier=no_such_model.onnx: no such file"),
 ])
 def test_a_bad_setting_is_named_before_any_case_runs(override: str, message: str):

@@ -44,6 +44,7 @@ class DrawParams:
         check_range("approach_mm", self.approach_mm, 0.0, low_open=True)
         check_range("drive_frames", self.drive_frames, 1)
         check_range("stopped_frames", self.stopped_frames, 1)
+        check_range("margin_px", self.margin_px, 0.0)
         check_range("max_tries", self.max_tries, 1)
 
 

@@ -27,8 +27,10 @@ class VisibilityParams:
     tyre_min_diameter_px: float
 
     def __post_init__(self) -> None:
+        check_range("plate_min_width_px", self.plate_min_width_px, 0.0)
         check_range("plate_min_facing", self.plate_min_facing, 0.0, 1.0)
         check_range("tyre_min_facing", self.tyre_min_facing, 0.0, 1.0)
+        check_range("tyre_min_diameter_px", self.tyre_min_diameter_px, 0.0)
 
 
 @dataclass(frozen=True)

@@ -55,6 +55,8 @@ class RoiParams:
     def __post_init__(self) -> None:
         check_range("silhouette_min_solid_px", self.silhouette_min_solid_px, 1)
         check_range("min_changed_fraction", self.min_changed_fraction, 0.0, 1.0)
+        check_range("silhouette_covered_erode_px", self.silhouette_covered_erode_px, 0)
+        check_range("silhouette_doubt_max_chroma", self.silhouette_doubt_max_chroma, 0.0)
 
     @classmethod
     def from_config(cls, **overrides: object) -> RoiParams:
