@@ -44,6 +44,7 @@ from vehloc.geometry.uncertainty import (
     road_mm_per_px,
 )
 from vehloc.infer.classifier import VehicleClassifier
+from vehloc.infer.preprocess import MIN_SIDE_PX
 
 LOCALIZED, NOT_LOCALIZED = "localized", "not localized"
 FIT_STARTS = {"key points": "paper's placement", "travel": "track's travel", "silhouette": "silhouette"}
@@ -285,8 +286,13 @@ class Localizer:
         height_px, width_px = frame_bgr.shape[:2]
         if box.touches_border(width_px, height_px, self.params.border_margin_px):
             return VehicleRecord(track.track_id, frame_index, box, NOT_LOCALIZED, "the vehicle touches the frame's edge")
+        votes = self.states[track.track_id].votes
+        if votes.empty:
+            return VehicleRecord(track.track_id, frame_index, box, NOT_LOCALIZED,
+                                 f"its box ({box.width_px}x{box.height_px} px) was never big enough to classify "
+                                 f"(at least {MIN_SIDE_PX} px a side with the crop's margin)")
         with self.clock.stage("classification"):
-            probabilities = self.states[track.track_id].votes.vote(self.classifier)
+            probabilities = votes.vote(self.classifier)
         top1 = self.classifier.predictions(probabilities[None], top_k=1)[0].top1
         spec = next(c for c in self.classifier.classes if c.model_id == top1.model_id)
         record = VehicleRecord(track.track_id, frame_index, box, LOCALIZED, "", top1.model_id, top1.make, top1.model,

@@ -9,6 +9,7 @@ import numpy as np
 
 from vehloc.data.boxes import Box
 from vehloc.infer.classifier import VehicleClassifier
+from vehloc.infer.preprocess import MIN_SIDE_PX
 
 CROP_MARGIN = 0.25
 """Each kept crop is the vehicle's box grown by this fraction a side, enough for the classifier's own ROI."""
@@ -26,9 +27,11 @@ class TrackVotes:
     seen: int = 0
 
     def add(self, frame_bgr: np.ndarray, box: Box) -> None:
-        """Offer this frame's view of the vehicle in `box`."""
+        """Offer this frame's view of the vehicle in `box`; a crop too small to classify is not kept."""
+        around = box.enlarged(CROP_MARGIN, frame_bgr.shape[1], frame_bgr.shape[0])
+        if min(around.width_px, around.height_px) < MIN_SIDE_PX:
+            return
         if self.seen % self.stride == 0:
-            around = box.enlarged(CROP_MARGIN, frame_bgr.shape[1], frame_bgr.shape[0])
             inside = Box(box.x0 - around.x0, box.y0 - around.y0, box.x1 - around.x0, box.y1 - around.y0)
             self.crops.append((around.crop(frame_bgr).copy(), inside))
             if len(self.crops) > self.capacity:
@@ -37,8 +40,16 @@ class TrackVotes:
                 self.stride *= 2
         self.seen += 1
 
+    @property
+    def empty(self) -> bool:
+        """No crop was big enough to classify: there is nothing to vote on."""
+        return not self.crops
+
     def vote(self, classifier: VehicleClassifier) -> np.ndarray:
-        """The class probabilities averaged over the kept crops (each crop classified once, when first voted)."""
+        """The class probabilities averaged over the kept crops (each crop classified once, when first voted);
+        ValueError when there is none (`empty`)."""
+        if self.empty:
+            raise ValueError("no crop to vote on")
         new = self.crops[len(self.crop_probabilities):]
         if new:
             images, boxes = zip(*new)
