@@ -31,6 +31,15 @@ def test_every_config_group_is_packaged():
     assert "vehloc.conf.localize.roi" in groups and groups <= packages
 
 
+def test_every_python_package_is_packaged():
+    """Each folder of vehloc/ with an `__init__.py` is listed in pyproject.toml (a wheel holds only those)."""
+    import tomllib
+
+    packages = set(tomllib.loads((PROJECT_ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    found = {".".join(p.parent.relative_to(PROJECT_ROOT).parts) for p in (PROJECT_ROOT / "vehloc").rglob("__init__.py")}
+    assert "vehloc.geometry" in found and found <= packages, sorted(found - packages)
+
+
 @pytest.mark.slow
 def test_a_non_editable_install_runs_the_hydra_clis_from_elsewhere(tmp_path: Path):
     source, wheels = tmp_path / "source", tmp_path / "wheels"
