@@ -123,6 +123,8 @@ def test_the_true_box_is_the_footprint_at_the_stop(settings: BenchmarkSettings):
     ("visibility.tyre_min_diameter_px=-1", "visibility.tyre_min_diameter_px"),
     ("draw.margin_px=-2", "draw.margin_px"),
     ("localize.roi.silhouette_covered_erode_px=-1", "roi.silhouette_covered_erode_px"),
+    ("localize.tracker.stop_frames=1", "tracker.stop_frames"),
+    ("localize.tracker.min_iou=1.5", "tracker.min_iou"),
     ("classifier=no_such_model.onnx", "classifier=no_such_model.onnx: no such file"),
 ])
 def test_a_bad_setting_is_named_before_any_case_runs(override: str, message: str):

@@ -329,6 +329,12 @@ class TrackerParams:
     stop_tolerance_fraction: float
     max_missed_frames: int
 
+    def __post_init__(self) -> None:
+        check_range("min_iou", self.min_iou, 0.0, 1.0)
+        check_range("stop_frames", self.stop_frames, 2)
+        check_range("stop_tolerance_fraction", self.stop_tolerance_fraction, 0.0)
+        check_range("max_missed_frames", self.max_missed_frames, 0)
+
     @classmethod
     def from_config(cls, **overrides: object) -> TrackerParams:
         """The settings of `conf/localize/tracker/default.yaml`, with `overrides`."""
