@@ -7,7 +7,7 @@ import pytest
 
 import vehloc.synth.render as render_module
 from detector_scenes import BLACK, RED_PICKUP, SILVER, WHITE, WHITE_SMALL, YELLOW_DARK_RIMS, render_case
-from vehloc.geometry.plate import PlateParams, detect_plate
+from vehloc.geometry.plate import PlateParams, character_rows, detect_plate
 from vehloc.synth.body import Material
 
 PARAMS = PlateParams.from_config()
@@ -109,3 +109,17 @@ def test_no_plate_in_an_empty_mask():
 def test_params_come_from_the_config_with_overrides():
     assert PARAMS.hue_range == (0, 180) and BLUE_PLATES.hue_range == (100, 124)
     assert PlateParams.from_config(min_score=0.9).min_score == 0.9
+
+
+def test_a_small_plates_characters_merged_into_two_parts_still_make_a_row():
+    """A 6 px tall plate's characters blur into two parts 8 px wide and 4-5 px tall (as on a 21 px plate 15 m
+    away): each alone is no run of characters (8 < 2.5 x 4), but side by side they span 17 px, a row of text
+    (>= 2.5 x 5); a lone such part does not."""
+    characters = np.zeros((12, 30), bool)
+    characters[3:7, 5:13] = True
+    characters[3:8, 14:22] = True
+    (row,) = character_rows(characters, PARAMS.min_characters, PARAMS.run_together_aspect)
+    assert row.sum() == characters.sum()
+    lone = np.zeros((12, 30), bool)
+    lone[3:7, 5:13] = True
+    assert character_rows(lone, PARAMS.min_characters, PARAMS.run_together_aspect) == []

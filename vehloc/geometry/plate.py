@@ -115,7 +115,8 @@ def filled_blobs(mask: np.ndarray, close_px: tuple[int, int]) -> list[np.ndarray
 def character_rows(characters: np.ndarray, min_characters: int, run_together_aspect: float) -> list[np.ndarray]:
     """Rows (bool masks) of character-like parts: parts of about the same height (within a factor 1.5), level
     with each other (centres within half a height) and at most a height apart, chained; a row needs
-    `min_characters` parts, or fewer that run together (a part `run_together_aspect` times wider than tall)."""
+    `min_characters` parts, or fewer that run together (the row `run_together_aspect` times wider than its tallest
+    part: a small plate's characters merge into one or a few parts)."""
     count, labels, stats, centres = cv2.connectedComponentsWithStats(characters.astype(np.uint8), connectivity=8)
     parts = [k for k in range(1, count) if stats[k, cv2.CC_STAT_AREA] >= 2]
     group = {k: k for k in parts}
@@ -137,9 +138,9 @@ def character_rows(characters: np.ndarray, min_characters: int, run_together_asp
     rows = []
     for r in {root(k) for k in parts}:
         members = [k for k in parts if root(k) == r]
-        widths = stats[members, cv2.CC_STAT_WIDTH]
-        heights = stats[members, cv2.CC_STAT_HEIGHT]
-        if len(members) >= min_characters or np.any(widths >= run_together_aspect * heights):
+        left = stats[members, cv2.CC_STAT_LEFT]
+        span_px = int((left + stats[members, cv2.CC_STAT_WIDTH]).max() - left.min())
+        if len(members) >= min_characters or span_px >= run_together_aspect * stats[members, cv2.CC_STAT_HEIGHT].max():
             rows.append(np.isin(labels, members))
     return rows
 
