@@ -27,6 +27,11 @@ PLATE_POSES = {  # along the road, the front or the rear towards the camera, at 
     "far_rear_20": CarPose(-1500.0, 10500.0, 110.0),
     "far_rear_30": CarPose(-800.0, 9800.0, 60.0),
 }
+OBLIQUE_POSES = {  # 45-50 deg off the road's axis, 5-6 m away: seen from above, the far wheel of the near side stands
+    "oblique_rear_left": CarPose(-1500.0, 6000.0, 45.0),  # high in the silhouette, the near one low
+    "oblique_rear_right": CarPose(1500.0, 6000.0, 135.0),
+    "oblique_rear_verge": CarPose(-2000.0, 5000.0, 50.0),
+}
 END_ON_POSES = ("near_front", "near_rear")
 SILVER, BLACK, WHITE = (9, 2), (1, 0), (1, 1)  # (model id, palette index): Honda Spirior silver, BMW 7 black, white
 YELLOW_DARK_RIMS, RED_PICKUP, WHITE_SMALL = (6, 0), (12, 4), (11, 1)
@@ -50,7 +55,7 @@ def table2_pose(name: str) -> CarPose:
 
 
 def pose_named(name: str) -> CarPose:
-    return table2_pose(name) if name.startswith("table2") else PLATE_POSES[name]
+    return table2_pose(name) if name.startswith("table2") else (PLATE_POSES | OBLIQUE_POSES)[name]
 
 
 @cache

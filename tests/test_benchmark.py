@@ -125,6 +125,8 @@ def test_the_true_box_is_the_footprint_at_the_stop(settings: BenchmarkSettings):
     ("localize.roi.silhouette_covered_erode_px=-1", "roi.silhouette_covered_erode_px"),
     ("localize.tracker.stop_frames=1", "tracker.stop_frames"),
     ("localize.tracker.min_iou=1.5", "tracker.min_iou"),
+    ("localize.wheels.band_fraction=0", "wheels.band_fraction"),
+    ("localize.tracker.resume_frames=0", "tracker.resume_frames"),
     ("classifier=no_such_model.onnx", "classifier=no_such_model.onnx: no such file"),
 ])
 def test_a_bad_setting_is_named_before_any_case_runs(override: str, message: str):

@@ -22,7 +22,7 @@ import cv2
 import numpy as np
 from scipy.ndimage import map_coordinates
 
-from vehloc.config import params_from_config
+from vehloc.config import check_range, params_from_config
 from vehloc.geometry.projective import ProjectiveTransform
 
 
@@ -31,6 +31,7 @@ class WheelParams:
     """Tyre darkness, rim ellipse tests, the tyre's extent and its width."""
 
     band_fraction: float
+    dark_band_fraction: float
     tyre_to_rim_nominal: float
     dark_percentile: float
     dark_contrasts: tuple[float, ...]
@@ -44,6 +45,18 @@ class WheelParams:
     wheelbase_range_mm: tuple[float, float]
     pair_tolerance_deg: float
     min_score: float
+
+    def __post_init__(self) -> None:
+        check_range("band_fraction", self.band_fraction, 0.0, 1.0, low_open=True)
+        check_range("dark_band_fraction", self.dark_band_fraction, 0.0, 1.0, low_open=True)
+        check_range("dark_percentile", self.dark_percentile, 0.0, 100.0)
+        check_range("min_rim_px", self.min_rim_px, 0.0, low_open=True)
+        check_range("min_axis_ratio", self.min_axis_ratio, 0.0, 1.0)
+        check_range("min_ellipse_overlap", self.min_ellipse_overlap, 0.0, 1.0)
+        check_range("tyre_to_rim_range[1]", self.tyre_to_rim_range[1], self.tyre_to_rim_range[0])
+        check_range("tyre_diameter_range_mm[1]", self.tyre_diameter_range_mm[1], self.tyre_diameter_range_mm[0])
+        check_range("wheelbase_range_mm[1]", self.wheelbase_range_mm[1], self.wheelbase_range_mm[0])
+        check_range("min_score", self.min_score, 0.0, 1.0)
 
     @classmethod
     def from_config(cls, **overrides: object) -> WheelParams:
@@ -142,17 +155,22 @@ def ground_crossing_px(mask: np.ndarray, start_px: np.ndarray, direction: np.nda
     return float(steps[outside[0]] - 0.125)
 
 
+def lower_part(mask: np.ndarray, fraction: float) -> np.ndarray:
+    """The mask's pixels in the lower `fraction` of its rows' span."""
+    rows = np.flatnonzero(mask.any(axis=1))
+    part = mask.copy()
+    part[: int(rows[0] + (1.0 - fraction) * (rows[-1] - rows[0]))] = False
+    return part
+
+
 def rim_candidates(
     roi_grey: np.ndarray, mask: np.ndarray, params: WheelParams
 ) -> list[tuple[Ellipse, float, np.ndarray]]:
     """Ellipses fitted to the outlines of the holes in the tyre-dark pixels of the silhouette's lower part, at each
     darkness level (dark rims need a low one), with how well each hole fills its ellipse (intersection over
     union) and that level's dark pixels; of holes found at several levels, the best-filled."""
-    rows = np.flatnonzero(mask.any(axis=1))
-    top = int(rows[0] + (1.0 - params.band_fraction) * (rows[-1] - rows[0]))
-    band = mask.copy()
-    band[:top] = False
-    darkest = np.percentile(roi_grey[band], params.dark_percentile)
+    band = lower_part(mask, params.band_fraction)
+    darkest = np.percentile(roi_grey[lower_part(mask, params.dark_band_fraction)], params.dark_percentile)
     rims: list[tuple[Ellipse, float, np.ndarray]] = []
     for contrast in params.dark_contrasts:
         dark = (band & (roi_grey <= darkest + contrast)).astype(np.uint8)
