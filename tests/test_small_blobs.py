@@ -21,21 +21,21 @@ HISTORY_FRAMES = 20
 
 def frame_with_overlays(road_bgr: np.ndarray, index: int, rng: np.random.Generator) -> np.ndarray:
     """The road under fresh noise and, after the background's history, a ticking clock (text 7 px tall), a caption
-    bar 60 x 5 px that blinks and specks of 1 to 3 px."""
+    bar 60 x 6 px that blinks and specks of 1 to 3 px."""
     frame = np.clip(road_bgr + rng.normal(0.0, 2.0, road_bgr.shape), 0, 255).astype(np.uint8)
     if index < HISTORY_FRAMES:
         return frame
     cv2.putText(frame, f"12:00:{index % 60:02d}", (4, 12), cv2.FONT_HERSHEY_PLAIN, 0.7, (255, 255, 255), 1)
     if index % 4 < 2:
-        frame[220:225, 200:260] = 250
+        frame[220:226, 200:260] = 250
     for k in range(1, 4):
         frame[100 + 20 * k:100 + 20 * k + k, 40 * k:40 * k + k] = 0
     return frame
 
 
 def test_blobs_too_small_to_classify_are_records_and_the_run_goes_on(tmp_path: Path):
-    """Every frame is processed by a real ONNX classifier's pipeline; the caption bar (7 px tall with the crop's
-    margin, under the classifier's 8) is a record not localized with the reason; the clock and the specks are too
+    """Every frame is processed by a real ONNX classifier's pipeline; the caption bar (6 px tall, under the
+    classifier's 8) is a record not localized with the reason; the clock and the specks are too
     small to be vehicle blobs at all; nothing is localized (there is no vehicle)."""
     rng = np.random.default_rng(0)
     road = np.clip(rng.normal(110.0, 12.0, (240, 320, 3)), 0, 255)

@@ -290,7 +290,7 @@ class Localizer:
         if votes.empty:
             return VehicleRecord(track.track_id, frame_index, box, NOT_LOCALIZED,
                                  f"its box ({box.width_px}x{box.height_px} px) was never big enough to classify "
-                                 f"(at least {MIN_SIDE_PX} px a side with the crop's margin)")
+                                 f"(at least {MIN_SIDE_PX} px a side)")
         with self.clock.stage("classification"):
             probabilities = votes.vote(self.classifier)
         top1 = self.classifier.predictions(probabilities[None], top_k=1)[0].top1

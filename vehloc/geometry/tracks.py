@@ -27,11 +27,12 @@ class TrackVotes:
     seen: int = 0
 
     def add(self, frame_bgr: np.ndarray, box: Box) -> None:
-        """Offer this frame's view of the vehicle in `box`; a crop too small to classify is not kept."""
-        around = box.enlarged(CROP_MARGIN, frame_bgr.shape[1], frame_bgr.shape[0])
-        if min(around.width_px, around.height_px) < MIN_SIDE_PX:
+        """Offer this frame's view of the vehicle in `box`; a box too small to classify (under the classifier's
+        `MIN_SIDE_PX` a side: its ROI is the box, maybe enlarged) is not kept."""
+        if min(box.width_px, box.height_px) < MIN_SIDE_PX:
             return
         if self.seen % self.stride == 0:
+            around = box.enlarged(CROP_MARGIN, frame_bgr.shape[1], frame_bgr.shape[0])
             inside = Box(box.x0 - around.x0, box.y0 - around.y0, box.x1 - around.x0, box.y1 - around.y0)
             self.crops.append((around.crop(frame_bgr).copy(), inside))
             if len(self.crops) > self.capacity:
