@@ -28,10 +28,12 @@ from vehloc.synth.scene import CameraSpec
 
 PROJECT_ROOT = Path(__file__).resolve().parents[1]
 GATE_SEEDS = 24
-GATE_LOCALIZED, GATE_FIT_WITHIN = 20, 9
-"""The subset reached 22 localized and 11 fits within 1 % and 1 deg (Intel Xeon); two cases of each are the margin
-for another CPU's arithmetic (four of its fits lie within 0.15 of a bar). The pipeline before the fit from the
-silhouette and the covered-road cue reached 7 and 5."""
+GATE_LOCALIZED, GATE_FIT_WITHIN, GATE_KEY_POINTS = 22, 10, 9
+"""The subset reached 23 localized, 11 fits within 1 % and 1 deg and the paper's key points found on 10 of its 20 cases
+that show them (the benchmark gave the same figures on an Intel Xeon and an AMD EPYC); one case of each is the margin
+for another CPU's arithmetic (some fits lie within 0.15 of a bar). Before the wider wheel band and the smaller blobs
+it reached 22 localized and 8 key points; before the fit from the silhouette and the covered-road cue, 7 localized
+and 5 fits."""
 
 
 def composed(*overrides: str) -> dict:
@@ -126,7 +128,6 @@ def test_the_true_box_is_the_footprint_at_the_stop(settings: BenchmarkSettings):
     ("localize.tracker.stop_frames=1", "tracker.stop_frames"),
     ("localize.tracker.min_iou=1.5", "tracker.min_iou"),
     ("localize.wheels.band_fraction=0", "wheels.band_fraction"),
-    ("localize.tracker.resume_frames=0", "tracker.resume_frames"),
     ("classifier=no_such_model.onnx", "classifier=no_such_model.onnx: no such file"),
 ])
 def test_a_bad_setting_is_named_before_any_case_runs(override: str, message: str):
@@ -157,6 +158,7 @@ def test_the_development_subset_holds_its_rates(tmp_path: Path):
     fit_within = int(grouped["fit_within"].sum())
     assert localized >= GATE_LOCALIZED, grouped[["seed", "reason"]][~grouped["localized"].astype(bool)]
     assert fit_within >= GATE_FIT_WITHIN
+    assert int(grouped["key_points_found"].fillna(0).sum()) >= GATE_KEY_POINTS
     written = write_report(frame, tmp_path, "gate", [o.picture_bgr for o in outcomes if o.picture_bgr is not None])
     assert {p.name for p in written} >= {"cases.csv", "groups.csv", "report.md", "errors.png"}
 

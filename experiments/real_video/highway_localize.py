@@ -29,7 +29,7 @@ from vehloc.geometry.video_localization import localize_video
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.tables import markdown_table
 
-from highway import LEFT_CURB_PX, VIDEO
+from highway import LEFT_CURB_PX, LOW_RESOLUTION_ROI, VIDEO
 
 YELLOW_EDGE_X_MM = 3658.0 + 50.0  # the outer edge of the yellow line (site file: its centre, 100 mm wide)
 MAX_OFF_LANE_DEG = 5.0
@@ -90,7 +90,7 @@ def main() -> None:
     calibration = read_calibration(args.calibration)
     localizer = Localizer(VehicleClassifier.from_onnx(args.model), calibration,
                           params=PipelineParams.from_config(every_frame=True, fit_from_travel=True),
-                          roi=RoiParams.from_config(scale=1.0, close_kernel_px=5))
+                          roi=RoiParams.from_config(**LOW_RESOLUTION_ROI))
     run = localize_video(localizer, VIDEO, args.out, max_frames=args.max_frames, pictures=False)
     records = pd.read_csv(args.out / "records.csv")
     left_curb_x_mm = float(calibration.road_to_image.inverse(LEFT_CURB_PX)[:, 0].mean())

@@ -314,9 +314,6 @@ class Track:
     boxes: list[Box] = field(default_factory=list)
     frames: list[int] = field(default_factory=list)
     stopped_at_frame: int | None = None
-    stop_centre_px: np.ndarray | None = None   # its mean box centre over the stop's window
-    away_frames: int = 0                       # frames in a row since the stop that it stood away from there
-    resumed_at_frame: int | None = None        # when it last moved on after a stop
 
     @property
     def box(self) -> Box:
@@ -331,14 +328,12 @@ class TrackerParams:
     stop_frames: int
     stop_tolerance_fraction: float
     max_missed_frames: int
-    resume_frames: int
 
     def __post_init__(self) -> None:
         check_range("min_iou", self.min_iou, 0.0, 1.0)
         check_range("stop_frames", self.stop_frames, 2)
         check_range("stop_tolerance_fraction", self.stop_tolerance_fraction, 0.0)
         check_range("max_missed_frames", self.max_missed_frames, 0)
-        check_range("resume_frames", self.resume_frames, 1)
 
     @classmethod
     def from_config(cls, **overrides: object) -> TrackerParams:
@@ -347,11 +342,8 @@ class TrackerParams:
 
 
 class StoppedVehicleTracker:
-    """Greedy IoU tracker; a track is stopped once its box centre's straight-line drift over N frames (a
-    least-squares fit, so that a box edge flickering with a shadow averages out) stays within a fraction of the
-    box diagonal. A stopped track whose mean centre over N frames then stays beyond that tolerance from its mean
-    at the stop for `resume_frames` frames moves again (a far car creeping to its stop looks still before it is), and may stop
-    anew once it has been tracked `stop_frames` more frames."""
+    """Greedy IoU tracker; a track is stopped once its box centre stays, for N frames, within a
+    fraction of the box diagonal (blob edges flicker by a few pixels even when the car stands)."""
 
     def __init__(self, params: TrackerParams | None = None) -> None:
         self.params = params or TrackerParams.from_config()
@@ -375,44 +367,16 @@ class StoppedVehicleTracker:
             self._next_id += 1
         stopped_now = []
         for track in self.tracks:
-            if track.frames[-1] != frame_index:
-                continue
-            if track.stopped_at_frame is not None:
-                track.away_frames = track.away_frames + 1 if self.away_from_stop(track) else 0
-                if track.away_frames >= self.params.resume_frames:  # it moved on
-                    track.stopped_at_frame, track.stop_centre_px, track.resumed_at_frame = None, None, frame_index
-                    track.away_frames = 0
-            settled = track.resumed_at_frame is None or frame_index - track.resumed_at_frame >= self.params.stop_frames
-            if track.stopped_at_frame is None and settled and self.is_still(track):
-                track.stopped_at_frame, track.stop_centre_px = frame_index, self.window_centre_px(track)
+            if track.stopped_at_frame is None and track.frames[-1] == frame_index and self.is_still(track):
+                track.stopped_at_frame = frame_index
                 stopped_now.append(track)
         return stopped_now
 
-    def tolerance_px(self, track: Track) -> float:
-        """How far a still vehicle's box centre may drift: a fraction of its box's diagonal."""
-        return self.params.stop_tolerance_fraction * float(np.hypot(track.box.width_px, track.box.height_px))
-
-    def window_centre_px(self, track: Track) -> np.ndarray:
-        """The mean box centre of the track's last `stop_frames` frames (a flickering box edge averages out)."""
-        return np.mean([b.centre_px for b in track.boxes[-self.params.stop_frames:]], axis=0)
-
-    def window_velocity_px(self, track: Track) -> np.ndarray:
-        """The box centre's velocity (px a frame) over the track's last `stop_frames` frames: the slope of the
-        least-squares line through them."""
-        n = self.params.stop_frames
-        centres = np.array([b.centre_px for b in track.boxes[-n:]])
-        return np.polyfit(np.array(track.frames[-n:], dtype=float), centres, 1)[0]
-
     def is_still(self, track: Track) -> bool:
-        """Whether the track's box centre stayed put over its last `stop_frames` frames, seen one after another:
-        the straight line through them drifts less than the tolerance over the window."""
+        """Whether the track's box centre stayed put over its last `stop_frames` frames, seen one after another."""
         n = self.params.stop_frames
         if len(track.boxes) < n or track.frames[-1] - track.frames[-n] != n - 1:
             return False
-        return float(np.linalg.norm(self.window_velocity_px(track))) * (n - 1) <= self.tolerance_px(track)
-
-    def away_from_stop(self, track: Track) -> bool:
-        """Whether a stopped track's mean box centre over its last `stop_frames` frames lies beyond the tolerance
-        from its mean at the stop."""
-        distance_px = np.linalg.norm(self.window_centre_px(track) - track.stop_centre_px)
-        return bool(distance_px > self.tolerance_px(track))
+        centres = np.array([b.centre_px for b in track.boxes[-n:]])
+        tolerance_px = self.params.stop_tolerance_fraction * np.hypot(track.box.width_px, track.box.height_px)
+        return float(np.max(np.linalg.norm(centres - centres[-1], axis=1))) <= tolerance_px
