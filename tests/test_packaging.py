@@ -20,11 +20,16 @@ COPY_IGNORED = (".git", ".venv", "demo_data", "logs", "outputs", "multirun", "bu
                 ".pytest_cache")
 
 
-def test_every_config_group_is_packaged():
-    """Each folder of conf/ (at any depth) is a data subpackage of vehloc.conf in pyproject.toml."""
+def packaged() -> set[str]:
+    """The packages pyproject.toml lists for setuptools (a wheel holds only those)."""
     import tomllib
 
-    packages = set(tomllib.loads((PROJECT_ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    return set(tomllib.loads((PROJECT_ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+
+
+def test_every_config_group_is_packaged():
+    """Each folder of conf/ (at any depth) is a data subpackage of vehloc.conf in pyproject.toml."""
+    packages = packaged()
     root = config_dir()
     groups = {"vehloc.conf." + ".".join(p.relative_to(root).parts) for p in root.rglob("*")
               if p.is_dir() and "__pycache__" not in p.parts}
@@ -32,10 +37,8 @@ def test_every_config_group_is_packaged():
 
 
 def test_every_python_package_is_packaged():
-    """Each folder of vehloc/ with an `__init__.py` is listed in pyproject.toml (a wheel holds only those)."""
-    import tomllib
-
-    packages = set(tomllib.loads((PROJECT_ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    """Each folder of vehloc/ with an `__init__.py` is listed in pyproject.toml."""
+    packages = packaged()
     found = {".".join(p.parent.relative_to(PROJECT_ROOT).parts) for p in (PROJECT_ROOT / "vehloc").rglob("__init__.py")}
     assert "vehloc.geometry" in found and found <= packages, sorted(found - packages)
 
