@@ -20,7 +20,8 @@ from omegaconf import OmegaConf
 from vehloc.config import config_dir
 from vehloc.geometry.calibration import calibrate
 from vehloc.geometry.markers import detect_markers
-from vehloc.geometry.roi import StoppedVehicleTracker, VehicleRoiExtractor
+from vehloc.geometry.pipeline.tracker import StoppedVehicleTracker
+from vehloc.geometry.roi import VehicleRoiExtractor
 from vehloc.synth.render import render_car
 from vehloc.synth.road import render_road
 from vehloc.synth.scene import SceneSpec, render_frames
@@ -55,7 +56,7 @@ def main() -> None:
     car = spec.cars[0]
     frames = [frame for frame, _ in render_frames(spec)]
 
-    extractor, tracker = VehicleRoiExtractor(), StoppedVehicleTracker()
+    extractor, tracker = VehicleRoiExtractor(), StoppedVehicleTracker(vote_frames=1)
     roi_ms, track_ms = [], []
     for index, frame in enumerate(frames):
         start = time.perf_counter()

@@ -23,12 +23,12 @@ PROJECT_ROOT = Path(__file__).resolve().parents[1]
 CLI_MODULES = {
     "vehloc-data": "vehloc.synth.cli",
     "vehloc-scene": "vehloc.synth.scene_cli",
-    "vehloc-calibrate": "vehloc.geometry.calibrate_cli",
+    "vehloc-calibrate": "vehloc.geometry.pipeline.calibrate_cli",
     "vehloc-export": "vehloc.infer.export_cli",
     "vehloc-predict": "vehloc.infer.predict_cli",
     "vehloc-train": "vehloc.train.train",
     "vehloc-eval": "vehloc.train.evaluate",
-    "vehloc-localize": "vehloc.geometry.localize_cli",
+    "vehloc-localize": "vehloc.geometry.pipeline.localize_cli",
     "vehloc-demo": "vehloc.demo.cli",
 }
 

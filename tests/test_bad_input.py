@@ -23,7 +23,8 @@ from bad_input import (
 from conftest import write_tiny_compcars
 from scene_configs import scene_spec
 
-from vehloc.geometry.site import write_site
+from vehloc.atomic import write_text
+from vehloc.geometry.site import site_yaml
 from vehloc.synth.road import render_road
 from vehloc.synth.scene_site import scene_site
 
@@ -357,7 +358,7 @@ def road_and_site(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]
     folder = tmp_path_factory.mktemp("site")
     spec = scene_spec("table2_middle_0")
     cv2.imwrite(str(folder / "road.png"), render_road(spec.camera.camera(), spec.layout, np.random.default_rng(0)))
-    write_site(folder / "site.yaml", scene_site(spec))
+    write_text(folder / "site.yaml", site_yaml(scene_site(spec)))
     return folder / "road.png", folder / "site.yaml"
 
 

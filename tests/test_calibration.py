@@ -17,7 +17,8 @@ from vehloc.geometry.calibration import (
 from vehloc.geometry.edges import stripe_edges
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.markers import detect_markers
-from vehloc.geometry.site import Site, SiteError, SiteMarker, homography_from_points, read_site, write_site
+from vehloc.geometry.site import Site, SiteError, SiteMarker, homography_from_points, read_site, site_yaml
+from vehloc.atomic import write_text
 from vehloc.synth.road import RoadLayout, render_road
 
 CAMERAS = {
@@ -132,7 +133,7 @@ def test_no_markers_is_a_clear_error() -> None:
 
 def test_site_round_trip(tmp_path: Path) -> None:
     site = _site_with_clicked_guess(CAMERAS["side_high"], 1.0, seed=0)
-    write_site(tmp_path / "site.yaml", site)
+    write_text(tmp_path / "site.yaml", site_yaml(site))
     again = read_site(tmp_path / "site.yaml")
     assert [m.marker_id for m in again.markers] == [m.marker_id for m in site.markers]
     np.testing.assert_allclose(again.initial_homography, site.initial_homography, rtol=1e-6, atol=1e-9)

@@ -15,7 +15,7 @@ from vehloc.geometry.footprint import FootprintParams, detect_footprint
 from vehloc.geometry.keypoints import DetectorParams, NotLocalized, paper_placement
 from vehloc.geometry.plate import PlateParams, detect_plate
 from vehloc.geometry.roi import Silhouette
-from vehloc.geometry.site_calibration import CameraCalibration
+from vehloc.geometry.camera_calibration import CameraCalibration
 from vehloc.geometry.wheels import WheelParams, detect_wheels
 from vehloc.synth.body import catalog_shapes
 from vehloc.synth.catalog import vehicle_specs

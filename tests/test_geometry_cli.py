@@ -12,9 +12,10 @@ import numpy as np
 import pytest
 from scene_configs import scene_spec
 
-from vehloc.geometry.site import write_site
+from vehloc.atomic import write_text
+from vehloc.geometry.site import site_yaml
 from vehloc.data.preprocess import ImageInputError
-from vehloc.geometry.video import MediaError, iter_frames, median_background, read_still
+from vehloc.geometry.pipeline.video import MediaError, iter_frames, median_background, read_still
 from vehloc.synth.road import render_road
 from vehloc.synth.scene_site import scene_site
 
@@ -28,13 +29,13 @@ def road_and_site(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]
     folder = tmp_path_factory.mktemp("site")
     spec = scene_spec("table2_middle_0")
     cv2.imwrite(str(folder / "road.png"), render_road(spec.camera.camera(), spec.layout, np.random.default_rng(0)))
-    write_site(folder / "site.yaml", scene_site(spec))
+    write_text(folder / "site.yaml", site_yaml(scene_site(spec)))
     return folder / "road.png", folder / "site.yaml"
 
 
 def test_calibrate_writes_calibration_and_overlay(road_and_site: tuple[Path, Path], tmp_path: Path) -> None:
     image, site = road_and_site
-    run = _run("vehloc.geometry.calibrate_cli", f"site={site}", f"image={image}", f"hydra.run.dir={tmp_path}")
+    run = _run("vehloc.geometry.pipeline.calibrate_cli", f"site={site}", f"image={image}", f"hydra.run.dir={tmp_path}")
     assert run.returncode == 0, run.stderr
     result = json.loads((tmp_path / "calibration.json").read_text())
     assert result["inliers"] >= 16 and result["rms_reprojection_px"] < 2.0
@@ -59,7 +60,7 @@ def test_calibrate_bad_input_is_one_line_and_exit_1(
     corrupt = tmp_path / "corrupt.avi"
     corrupt.write_bytes(b"RIFF0000AVI garbage" * 10)
     override = override.format(missing=tmp_path / "none.avi", corrupt=corrupt, missing_site=tmp_path / "none.yaml")
-    run = _run("vehloc.geometry.calibrate_cli", f"site={site}", f"image={image}", override, f"hydra.run.dir={tmp_path / 'out'}")
+    run = _run("vehloc.geometry.pipeline.calibrate_cli", f"site={site}", f"image={image}", override, f"hydra.run.dir={tmp_path / 'out'}")
     assert run.returncode == 1
     assert run.stderr.strip().startswith("vehloc-calibrate: error:") and message in run.stderr
     assert len(run.stderr.strip().splitlines()) == 1

@@ -23,7 +23,7 @@ from vehloc.geometry.keypoints import (
     plate_widths_mm,
 )
 from vehloc.geometry.plate import Plate, PlateParams
-from vehloc.geometry.site_calibration import CameraCalibration
+from vehloc.geometry.camera_calibration import CameraCalibration
 
 
 @pytest.fixture(scope="module")

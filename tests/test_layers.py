@@ -1,7 +1,10 @@
-"""The layer contract: data <- train <- infer <- geometry, synth over data and geometry, the localization
-benchmark over synth, infer and geometry, the demo application
-over them all (training only as a subprocess); deployment (data, infer, geometry, synth) without torch. Checked on the imports written in the source (every `import`, at
-module level or inside functions) and on what importing the deployment packages really loads."""
+"""The layer contract: `data` under all; `train` and `infer` beside each other on `data` (the export bridges them);
+the geometry maths (`vehloc.geometry`) on `data` only: no classifier, no pipeline, no drawing, no file writer; the
+pipeline (`vehloc.geometry.pipeline`) on the geometry and `infer`, never on `train`; `synth` on `data` and the
+geometry; the localization benchmark on `synth` and the pipeline; the demo application over them all (training
+only as a subprocess); deployment (data, infer, geometry, the pipeline, synth) without torch. Checked on the
+imports written in the source (every `import`, at module level or inside functions) and on what importing the
+deployment packages really loads."""
 
 from __future__ import annotations
 
@@ -14,21 +17,23 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "vehloc"
 UTILITIES = {"errors", "hardware", "config", "atomic", "tables", "conf"}
+FILE_WRITERS = {"atomic"}
 ALLOWED = {
     "utilities": UTILITIES,
     "data": UTILITIES | {"data"},
     "train": UTILITIES | {"data", "train"},
     "infer": UTILITIES | {"data", "infer"},
-    "geometry": UTILITIES | {"data", "infer", "geometry"},
+    "geometry": UTILITIES - FILE_WRITERS | {"data", "geometry"},
+    "pipeline": UTILITIES | {"data", "infer", "geometry", "pipeline"},
     "synth": UTILITIES | {"data", "geometry", "synth"},
-    "benchmark": UTILITIES | {"data", "infer", "geometry", "synth", "benchmark"},
-    "demo": UTILITIES | {"data", "train", "infer", "geometry", "synth", "demo"},
+    "benchmark": UTILITIES | {"data", "infer", "geometry", "pipeline", "synth", "benchmark"},
+    "demo": UTILITIES | {"data", "train", "infer", "geometry", "pipeline", "synth", "demo"},
 }
 # the one bridge between training and deployment: export (with training, as it needs torch) turns a checkpoint
 # into an ONNX file and checks it with the deployed classifier; vehloc-export's CLI calls it when it runs
 EXCEPTIONS = {"vehloc.train.export": {"infer"}, "vehloc.infer.export_cli": {"train"}}
 TORCH = {"torch", "torchvision", "lightning", "pytorch_lightning", "torchmetrics"}
-TORCH_FREE_LAYERS = {"utilities", "data", "infer", "geometry", "synth", "benchmark", "demo"}
+TORCH_FREE_LAYERS = {"utilities", "data", "infer", "geometry", "pipeline", "synth", "benchmark", "demo"}
 
 
 def module_name(path: Path, root: Path) -> str:
@@ -37,8 +42,19 @@ def module_name(path: Path, root: Path) -> str:
 
 
 def layer_of(module: str) -> str:
-    part = module.split(".")[1] if "." in module else ""
-    return "utilities" if part in UTILITIES or not part else part
+    """The layer of a vehloc module: its package under `vehloc`, the pipeline apart from the geometry maths, and the
+    top-level modules (`vehloc.config`, ...) by their own names, as utilities."""
+    parts = module.split(".")
+    if parts[1:3] == ["geometry", "pipeline"]:
+        return "pipeline"
+    part = parts[1] if len(parts) > 1 else ""
+    return part if part and part not in UTILITIES else "utilities"
+
+
+def target_layer(target: str) -> str:
+    """The layer an import of `target` reaches: as `layer_of`, with a top-level utility module named as itself."""
+    layer = layer_of(target)
+    return target.split(".")[1] if layer == "utilities" and "." in target else layer
 
 
 def imported_modules(path: Path) -> set[str]:
@@ -61,7 +77,7 @@ def layer_violations(root: Path) -> list[str]:
         allowed = ALLOWED[layer] | EXCEPTIONS.get(module, set())
         for target in sorted(imported_modules(path)):
             top = target.split(".")[0]
-            if top == root.name and "." in target and target.split(".")[1] not in allowed:
+            if top == root.name and "." in target and target_layer(target) not in allowed:
                 violations.append(f"{module} ({layer}) imports {target}")
             if top in TORCH and layer in TORCH_FREE_LAYERS and module not in EXCEPTIONS:
                 violations.append(f"{module} ({layer}) imports {target}, deployment runs without torch")
@@ -75,6 +91,17 @@ def test_every_import_follows_the_layers():
 @pytest.mark.parametrize(("module", "source", "expected"), [
     ("geometry/footprint.py", "def f():\n    from vehloc.train.module import LitVehicleClassifier\n",
      "vehloc.geometry.footprint (geometry) imports vehloc.train.module"),
+    ("geometry/model_fit.py", "from vehloc.geometry.pipeline.localize import Localizer\n",
+     "vehloc.geometry.model_fit (geometry) imports vehloc.geometry.pipeline.localize"),
+    ("geometry/keypoints.py", "from vehloc.infer.classifier import VehicleClassifier\n",
+     "vehloc.geometry.keypoints (geometry) imports vehloc.infer.classifier"),
+    ("geometry/placement.py", "from vehloc.geometry.pipeline.drawing import draw_cuboid\n",
+     "vehloc.geometry.placement (geometry) imports vehloc.geometry.pipeline.drawing"),
+    ("geometry/site.py", "from vehloc.atomic import write_text\n", "vehloc.geometry.site (geometry) imports vehloc.atomic"),
+    ("geometry/pipeline/tracker.py", "import vehloc.train.checkpoints\n",
+     "vehloc.geometry.pipeline.tracker (pipeline) imports vehloc.train.checkpoints"),
+    ("geometry/pipeline/votes.py", "import torch\n",
+     "vehloc.geometry.pipeline.votes (pipeline) imports torch, deployment runs without torch"),
     ("data/reader.py", "import vehloc.synth.catalog\n", "vehloc.data.reader (data) imports vehloc.synth.catalog"),
     ("infer/classifier.py", "import torch\n", "vehloc.infer.classifier (infer) imports torch, deployment runs without torch"),
     ("synth/scene.py", "from vehloc.infer import VehicleClassifier\n", "vehloc.synth.scene (synth) imports vehloc.infer"),
@@ -93,12 +120,13 @@ def test_a_forbidden_import_is_caught(tmp_path: Path, module: str, source: str, 
 
 
 def test_deployment_packages_import_without_torch():
-    """Importing every module of data, infer (but the CLI of export), geometry and synth leaves torch unloaded."""
+    """Importing every module of data, infer (but the CLI of export), geometry, the pipeline, synth, the benchmark
+    and the demo leaves torch unloaded."""
     modules = sorted(
         module_name(path, PACKAGE) for path in PACKAGE.rglob("*.py")
         if layer_of(module_name(path, PACKAGE)) in TORCH_FREE_LAYERS and module_name(path, PACKAGE) not in EXCEPTIONS
     )
-    assert "vehloc.infer" in modules and "vehloc.geometry.calibration" in modules
+    assert {"vehloc.infer", "vehloc.geometry.calibration", "vehloc.geometry.pipeline.localize"} <= set(modules)
     code = (
         "import importlib, sys\n"
         f"for name in {modules!r}:\n    importlib.import_module(name)\n"
@@ -108,3 +136,20 @@ def test_deployment_packages_import_without_torch():
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr
     assert run.stdout.strip() == ""
+
+
+def test_every_package_states_its_api():
+    """Each package's `__init__` names its API in `__all__`, every name of which it really exports."""
+    packages = sorted(module_name(path, PACKAGE) for path in PACKAGE.rglob("__init__.py"))
+    assert {"vehloc.geometry", "vehloc.geometry.pipeline"} <= set(packages)
+    code = (
+        "import importlib\n"
+        f"for name in {packages!r}:\n"
+        "    module = importlib.import_module(name)\n"
+        "    names = getattr(module, '__all__', None)\n"
+        "    assert isinstance(names, list), f'{name} has no __all__'\n"
+        "    missing = [n for n in names if not hasattr(module, n)]\n"
+        "    assert not missing, f'{name} does not export {missing}'\n"
+    )
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr

@@ -8,7 +8,7 @@ import pytest
 
 from vehloc.data.boxes import Box
 from vehloc.geometry.roi import RoiParams, VehicleRoiExtractor
-from vehloc.geometry.video import iter_frames
+from vehloc.geometry.pipeline.video import iter_frames
 
 # Cars read off frames 800 and 1500 by eye on a 3x enlargement with a 10 px grid (x0, y0, x1, y1 in
 # px, half-open); only cars wholly in view and at least 40 px wide, which MOG2 must separate.

@@ -14,7 +14,7 @@ from scene_configs import PLATE_SCENES, TABLE2_SCENES, scene_spec, short_scene
 
 from vehloc.config import ConfigError
 from vehloc.geometry.projective import ProjectiveTransform
-from vehloc.geometry.video import iter_frames
+from vehloc.geometry.pipeline.video import iter_frames
 from vehloc.synth.body import build_car_mesh
 from vehloc.synth.noise import SensorNoise
 from vehloc.synth.render import CarPose, Lighting, plates_seen, render_car

@@ -9,9 +9,9 @@ import cv2
 import numpy as np
 from bad_input import write_handmade_onnx
 
-from vehloc.geometry.localize import LOCALIZED, NOT_LOCALIZED, Localizer, PipelineParams
+from vehloc.geometry.pipeline.localize import LOCALIZED, NOT_LOCALIZED, Localizer, PipelineParams
 from vehloc.geometry.roi import RoiParams
-from vehloc.geometry.site_calibration import CameraCalibration
+from vehloc.geometry.camera_calibration import CameraCalibration
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.synth.scene import CameraSpec
 

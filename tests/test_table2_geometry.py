@@ -9,7 +9,8 @@ from scene_configs import TABLE2_SCENES, scene_spec
 from vehloc.geometry.calibration import calibrate
 from vehloc.geometry.markers import detect_markers
 from vehloc.data.boxes import Box
-from vehloc.geometry.roi import StoppedVehicleTracker, VehicleRoiExtractor
+from vehloc.geometry.pipeline.tracker import StoppedVehicleTracker
+from vehloc.geometry.roi import VehicleRoiExtractor
 from vehloc.synth.road import render_road
 from vehloc.synth.scene import render_frames
 from vehloc.synth.scene_site import scene_site
@@ -45,10 +46,10 @@ def test_roi_of_the_stopped_car(name: str) -> None:
     """The stop signal fires within 20 frames of the stop, once, and the ROI box then has IoU >= 0.85
     with the true box of the rendered car (the issue's tolerance)."""
     spec = scene_spec(name, drive_frames=40, stopped_frames=25)
-    extractor, tracker = VehicleRoiExtractor(), StoppedVehicleTracker()
+    extractor, tracker = VehicleRoiExtractor(), StoppedVehicleTracker(vote_frames=1)
     stops = []
     for frame_index, (frame, (true_box,)) in enumerate(render_frames(spec)):
-        for track in tracker.update(extractor.apply(frame), frame_index):
+        for track in tracker.update(extractor.apply(frame), frame_index).stopped:
             stops.append((frame_index, track.box.iou(true_box)))
     assert len(stops) == 1, stops
     frame_index, iou = stops[0]

@@ -13,7 +13,7 @@ from vehloc.geometry.placement import (
     place_on_end,
     place_on_side,
 )
-from vehloc.geometry.table2 import combined_accuracy_pct, pose_error, true_box_from_tyres
+from vehloc.geometry.pipeline.table2 import combined_accuracy_pct, pose_error, true_box_from_tyres
 
 PAPER_CAR_MM = (4920.0, 1870.0)
 # the paper's Table 2: real (X, Y, angle), its estimation errors (X mm, Y mm, angle deg) and its X %, Y %,

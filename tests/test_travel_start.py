@@ -14,10 +14,10 @@ from bad_input import write_handmade_onnx
 from vehloc.config import ConfigError
 from vehloc.data.boxes import Box
 from vehloc.geometry.camera import PinholeCamera
-from vehloc.geometry.localize import NOT_LOCALIZED, Localizer, PipelineParams, VehicleRecord, travel_start_box
+from vehloc.geometry.pipeline.localize import NOT_LOCALIZED, Localizer, PipelineParams, VehicleRecord, travel_start_box
 from vehloc.geometry.motion import path_heading, recent_path
 from vehloc.geometry.roi import Silhouette
-from vehloc.geometry.site_calibration import CameraCalibration
+from vehloc.geometry.camera_calibration import CameraCalibration
 from vehloc.infer.classifier import VehicleClassifier
 
 LENGTH_MM, WIDTH_MM = 4800.0, 1850.0
@@ -190,7 +190,7 @@ def test_the_path_skips_the_frames_whose_edge_cuts_the_vehicle():
     frame = np.zeros((720, 1280, 3), np.uint8)
     for index in range(len(boxes)):
         localizer.process(index, frame)
-    (state,) = localizer.states.values()
+    (state,) = localizer.tracker.tracks
     margin_px = localizer.params.border_margin_px
     clear = [i for i, bottom in enumerate(bottoms_px) if bottom < 720 - margin_px]
     assert state.ground_frames == clear

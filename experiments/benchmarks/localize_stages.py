@@ -22,10 +22,10 @@ import pandas as pd
 
 from vehloc.atomic import write_text
 from vehloc.data.boxes import Box
-from vehloc.geometry.localize import Localizer, PipelineParams
-from vehloc.geometry.site_calibration import read_calibration
-from vehloc.geometry.timing import StageClock
-from vehloc.geometry.video import iter_frames
+from vehloc.geometry.pipeline.localize import Localizer, PipelineParams
+from vehloc.geometry.camera_calibration import read_calibration
+from vehloc.geometry.pipeline.timing import StageClock
+from vehloc.geometry.pipeline.video import iter_frames
 from vehloc.hardware import cpu_info
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.tables import markdown_table
@@ -62,7 +62,7 @@ def run_mode(video: Path, classifier: VehicleClassifier, calibration_path: Path,
         start = time.perf_counter()
         localizer.process(frame_count, frame)
         seconds = time.perf_counter() - start
-        live = [t for t in localizer.tracker.tracks if t.frames[-1] == frame_count]
+        live = [t for t in localizer.tracker.tracks if t.last_frame == frame_count]
         if len(live) == 1:
             one_in_view_s.append(seconds)
             sample = (live[0].box, frame)

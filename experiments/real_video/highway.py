@@ -21,8 +21,8 @@ from vehloc.atomic import write_image, write_text
 from vehloc.geometry.calibration import CalibrationParams
 from vehloc.geometry.roi import RoiParams, VehicleRoiExtractor
 from vehloc.geometry.site import read_site
-from vehloc.geometry.site_calibration import calibrate_site, write_calibration_files
-from vehloc.geometry.video import iter_frames, median_background
+from vehloc.geometry.pipeline.site_calibration import calibrate_site, write_calibration_files
+from vehloc.geometry.pipeline.video import iter_frames, median_background
 
 PROJECT = Path(__file__).resolve().parents[2]
 VIDEO = PROJECT.parent / "shared" / "data" / "traffic" / "highway_320x240.avi"

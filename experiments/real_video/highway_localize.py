@@ -20,12 +20,12 @@ import numpy as np
 import pandas as pd
 
 from vehloc.atomic import write_image, write_text
-from vehloc.geometry.drawing import METHOD_COLOURS_BGR, draw_cuboid
-from vehloc.geometry.localize import LOCALIZED, Localizer, PipelineParams, VehicleRecord
+from vehloc.geometry.pipeline.drawing import METHOD_COLOURS_BGR, draw_cuboid
+from vehloc.geometry.pipeline.localize import LOCALIZED, Localizer, PipelineParams, VehicleRecord
 from vehloc.geometry.roi import RoiParams
-from vehloc.geometry.site_calibration import read_calibration
-from vehloc.geometry.video import iter_frames
-from vehloc.geometry.video_localization import localize_video
+from vehloc.geometry.camera_calibration import read_calibration
+from vehloc.geometry.pipeline.video import iter_frames
+from vehloc.geometry.pipeline.video_localization import localize_video
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.tables import markdown_table
 

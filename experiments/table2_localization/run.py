@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 
 from vehloc.demo.table2_cases import TABLE2_SCENES, calibrate_case, case_table, localize_case, render_case, scene_spec
-from vehloc.geometry.evaluation import write_table2
+from vehloc.geometry.pipeline.evaluation import write_table2
 from vehloc.geometry.truth import read_scene_truth
 from vehloc.infer.classifier import VehicleClassifier
 

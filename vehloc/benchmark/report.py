@@ -12,7 +12,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from vehloc.atomic import atomic_path, write_image, write_text
-from vehloc.geometry.drawing import METHOD_STYLES
+from vehloc.geometry.pipeline.drawing import METHOD_STYLES
 from vehloc.tables import markdown_table
 
 GATES = {

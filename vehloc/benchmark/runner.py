@@ -20,14 +20,14 @@ from vehloc.benchmark.oracle import TrueModelClassifier
 from vehloc.benchmark.visibility import TYRE_NAMES, Visibility, VisibilityParams, visibility
 from vehloc.data.boxes import Box
 from vehloc.geometry.camera import PinholeCamera
-from vehloc.geometry.drawing import METHOD_COLOURS_BGR, draw_cuboid
-from vehloc.geometry.evaluation import MIN_MATCH_IOU
-from vehloc.geometry.localize import LOCALIZED, Localizer, VehicleRecord
+from vehloc.geometry.pipeline.drawing import METHOD_COLOURS_BGR, draw_cuboid
+from vehloc.geometry.pipeline.evaluation import MIN_MATCH_IOU
+from vehloc.geometry.pipeline.localize import LOCALIZED, Localizer, VehicleRecord
 from vehloc.geometry.placement import VehicleBox
-from vehloc.geometry.site_calibration import CameraCalibration
-from vehloc.geometry.table2 import pose_error, true_box_from_tyres
+from vehloc.geometry.camera_calibration import CameraCalibration
+from vehloc.geometry.pipeline.table2 import pose_error, true_box_from_tyres
 from vehloc.geometry.uncertainty import road_mm_per_px
-from vehloc.geometry.video import iter_frames
+from vehloc.geometry.pipeline.video import iter_frames
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.synth.catalog import model_by_id
 from vehloc.synth.render import tyre_contacts_car_mm

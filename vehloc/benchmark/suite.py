@@ -18,7 +18,7 @@ from vehloc.benchmark.cases import BenchmarkCase, DrawParams, cameras_from_confi
 from vehloc.benchmark.runner import CaseOutcome, run_case, thumbnail
 from vehloc.benchmark.visibility import VisibilityParams
 from vehloc.config import ConfigError, SettingError, build_params
-from vehloc.geometry.localize import stage_params
+from vehloc.geometry.pipeline.localize import stage_params
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.synth.catalog import model_by_id
 from vehloc.synth.road import RoadLayout

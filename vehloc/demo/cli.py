@@ -26,7 +26,7 @@ from vehloc.demo.report import write_report
 from vehloc.demo.stamps import finished_at, forget, is_done, mark_done, seconds_taken
 from vehloc.demo.table2_cases import TABLE2_SCENES, case_table, localize_case, render_and_calibrate_case
 from vehloc.errors import VehlocError, exit_on_error, hydra_main
-from vehloc.geometry.evaluation import write_table2
+from vehloc.geometry.pipeline.evaluation import write_table2
 from vehloc.hardware import cpu_info
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.infer.metadata import file_sha256

@@ -14,8 +14,8 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from vehloc.atomic import atomic_path, write_text  # noqa: E402
-from vehloc.geometry.drawing import METHOD_STYLES  # noqa: E402
-from vehloc.geometry.table2 import PAPER_HEADING_DEG, PAPER_POSITION_PCT  # noqa: E402
+from vehloc.geometry.pipeline.drawing import METHOD_STYLES  # noqa: E402
+from vehloc.geometry.pipeline.table2 import PAPER_HEADING_DEG, PAPER_POSITION_PCT  # noqa: E402
 from vehloc.tables import markdown_table  # noqa: E402
 
 

@@ -11,12 +11,13 @@ from hydra.core.global_hydra import GlobalHydra
 from omegaconf import OmegaConf
 
 from vehloc.config import config_dir
-from vehloc.geometry.localize import Localizer
+from vehloc.geometry.pipeline.localize import Localizer
 from vehloc.geometry.site import read_site, site_yaml
-from vehloc.geometry.site_calibration import calibrate_site, read_calibration, write_calibration_files
+from vehloc.geometry.camera_calibration import read_calibration
+from vehloc.geometry.pipeline.site_calibration import calibrate_site, write_calibration_files
 from vehloc.geometry.truth import read_scene_truth
-from vehloc.geometry.video import read_still
-from vehloc.geometry.video_localization import VideoLocalization, localize_video
+from vehloc.geometry.pipeline.video import read_still
+from vehloc.geometry.pipeline.video_localization import VideoLocalization, localize_video
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.synth.scene import SceneSpec, write_scene
 from vehloc.synth.scene_site import scene_site

@@ -30,7 +30,7 @@ from vehloc.geometry.placement import VehicleBox, direction_of, heading_of, plac
 from vehloc.geometry.plate import Plate, PlateParams, detect_plate
 from vehloc.geometry.projective import ProjectiveTransform
 from vehloc.geometry.roi import Silhouette
-from vehloc.geometry.site_calibration import CameraCalibration
+from vehloc.geometry.camera_calibration import CameraCalibration
 from vehloc.geometry.wheels import WheelParams, detect_wheels
 
 C_DISTANCE_MM = 1000.0

@@ -1,15 +1,15 @@
-"""Vehicle ROI from a fixed camera: GMM background subtraction (MOG2), shadow removal, blobs, tracks.
+"""Vehicle ROI from a fixed camera: GMM background subtraction (MOG2), shadow removal, blobs, silhouettes.
 
 MOG2 models every pixel as a mixture of Gaussians (3 here, as in the paper) learnt over a
 150-frame history, then adapts more slowly (so that a car that stops is not absorbed into the
 background within a second, while light changes still are over some seconds); it labels pixels
 that match a background Gaussian but are darker by a bounded ratio as shadow, and those are dropped. Morphology closes the blob, connected components give
-vehicle boxes, and a greedy IoU tracker says when a vehicle has stopped.
+vehicle boxes (the tracker that follows them is the pipeline's: `vehloc.geometry.pipeline.tracker`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -304,79 +304,3 @@ class VehicleRoiExtractor:
             raise RuntimeError("no frame has been applied yet")
         background = roi.crop(self.background).astype(np.uint8)
         return vehicle_silhouette(roi.crop(self.last_frame), background, self.params)
-
-
-@dataclass
-class Track:
-    """One vehicle followed across frames."""
-
-    track_id: int
-    boxes: list[Box] = field(default_factory=list)
-    frames: list[int] = field(default_factory=list)
-    stopped_at_frame: int | None = None
-
-    @property
-    def box(self) -> Box:
-        return self.boxes[-1]
-
-
-@dataclass(frozen=True)
-class TrackerParams:
-    """Association and stop detection."""
-
-    min_iou: float
-    stop_frames: int
-    stop_tolerance_fraction: float
-    max_missed_frames: int
-
-    def __post_init__(self) -> None:
-        check_range("min_iou", self.min_iou, 0.0, 1.0)
-        check_range("stop_frames", self.stop_frames, 2)
-        check_range("stop_tolerance_fraction", self.stop_tolerance_fraction, 0.0)
-        check_range("max_missed_frames", self.max_missed_frames, 0)
-
-    @classmethod
-    def from_config(cls, **overrides: object) -> TrackerParams:
-        """The settings of `conf/localize/tracker/default.yaml`, with `overrides`."""
-        return params_from_config(cls, "localize/tracker/default.yaml", overrides)
-
-
-class StoppedVehicleTracker:
-    """Greedy IoU tracker; a track is stopped once its box centre stays, for N frames, within a
-    fraction of the box diagonal (blob edges flicker by a few pixels even when the car stands)."""
-
-    def __init__(self, params: TrackerParams | None = None) -> None:
-        self.params = params or TrackerParams.from_config()
-        self.tracks: list[Track] = []
-        self._next_id = 1
-
-    def update(self, boxes: list[Box], frame_index: int) -> list[Track]:
-        """Associate this frame's boxes; return the tracks that stopped at this frame."""
-        unmatched = list(boxes)
-        live = [t for t in self.tracks if frame_index - t.frames[-1] <= self.params.max_missed_frames]
-        for track in sorted(live, key=lambda t: -t.box.area_px):
-            if not unmatched:
-                break
-            overlaps = [track.box.iou(b) for b in unmatched]
-            best = int(np.argmax(overlaps))
-            if overlaps[best] >= self.params.min_iou:
-                track.boxes.append(unmatched.pop(best))
-                track.frames.append(frame_index)
-        for box in unmatched:
-            self.tracks.append(Track(self._next_id, [box], [frame_index]))
-            self._next_id += 1
-        stopped_now = []
-        for track in self.tracks:
-            if track.stopped_at_frame is None and track.frames[-1] == frame_index and self.is_still(track):
-                track.stopped_at_frame = frame_index
-                stopped_now.append(track)
-        return stopped_now
-
-    def is_still(self, track: Track) -> bool:
-        """Whether the track's box centre stayed put over its last `stop_frames` frames, seen one after another."""
-        n = self.params.stop_frames
-        if len(track.boxes) < n or track.frames[-1] - track.frames[-n] != n - 1:
-            return False
-        centres = np.array([b.centre_px for b in track.boxes[-n:]])
-        tolerance_px = self.params.stop_tolerance_fraction * np.hypot(track.box.width_px, track.box.height_px)
-        return float(np.max(np.linalg.norm(centres - centres[-1], axis=1))) <= tolerance_px

@@ -25,7 +25,6 @@ import cv2
 import numpy as np
 import yaml
 
-from vehloc.atomic import write_text
 from vehloc.data.text import read_yaml
 from vehloc.errors import VehlocError
 from vehloc.geometry.projective import ProjectiveTransform
@@ -236,11 +235,6 @@ def read_site(path: Path | str) -> Site:
     image_size = _parse_image_size(content.get("image_size_px"), path)
     stripes = _parse_stripes(content.get("stripes"), path)
     return Site(str(name), markers, homography / homography[2, 2], image_size, guess_points, stripes, str(path))
-
-
-def write_site(path: Path, site: Site) -> None:
-    """Write a site file atomically (see `site_yaml`)."""
-    write_text(path, site_yaml(site))
 
 
 def site_yaml(site: Site) -> str:

@@ -18,8 +18,8 @@ from vehloc.errors import exit_on_error, hydra_main
 from vehloc.geometry.calibration import CalibrationParams
 from vehloc.geometry.markers import MarkerDetectionParams
 from vehloc.geometry.site import read_site
-from vehloc.geometry.site_calibration import CALIBRATION_MODES, calibrate_site, write_calibration_files
-from vehloc.geometry.video import median_background, read_still
+from vehloc.geometry.pipeline.site_calibration import CALIBRATION_MODES, calibrate_site, write_calibration_files
+from vehloc.geometry.pipeline.video import median_background, read_still
 
 
 @dataclass(frozen=True)

@@ -12,10 +12,10 @@ from omegaconf import DictConfig, OmegaConf
 
 from vehloc.config import config_dir
 from vehloc.errors import exit_on_error
-from vehloc.geometry.localize import Localizer, stage_params
-from vehloc.geometry.site_calibration import read_calibration
+from vehloc.geometry.pipeline.localize import Localizer, stage_params
+from vehloc.geometry.camera_calibration import read_calibration
 from vehloc.geometry.truth import read_scene_truth
-from vehloc.geometry.video_localization import localize_video
+from vehloc.geometry.pipeline.video_localization import localize_video
 from vehloc.infer.classifier import VehicleClassifier
 
 

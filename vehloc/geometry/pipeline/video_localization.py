@@ -13,11 +13,11 @@ import pandas as pd
 from tqdm import tqdm
 
 from vehloc.atomic import write_image, write_text
-from vehloc.geometry.drawing import METHOD_COLOURS_BGR, draw_cuboid, write_birds_eye
-from vehloc.geometry.evaluation import table2_rows, write_case_figures, write_table2
-from vehloc.geometry.localize import LOCALIZED, Localizer, VehicleRecord
+from vehloc.geometry.pipeline.drawing import METHOD_COLOURS_BGR, draw_cuboid, write_birds_eye
+from vehloc.geometry.pipeline.evaluation import table2_rows, write_case_figures, write_table2
+from vehloc.geometry.pipeline.localize import LOCALIZED, Localizer, VehicleRecord
 from vehloc.geometry.truth import SceneTruth
-from vehloc.geometry.video import iter_frames, video_info
+from vehloc.geometry.pipeline.video import iter_frames, video_info
 
 
 @dataclass(frozen=True)

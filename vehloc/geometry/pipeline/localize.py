@@ -16,7 +16,7 @@ localized, with the reason.
 from __future__ import annotations
 
 from collections.abc import Iterable, Iterator, Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -30,11 +30,11 @@ from vehloc.geometry.model_fit import FitParams, best_start, fit_model
 from vehloc.geometry.motion import PathHeading, path_heading, recent_path
 from vehloc.geometry.placement import VehicleBox, direction_of, facing, heading_of
 from vehloc.geometry.projective import HorizonError
-from vehloc.geometry.roi import StoppedVehicleTracker, Track, TrackerParams, VehicleRoiExtractor, RoiParams
+from vehloc.geometry.roi import RoiParams, VehicleRoiExtractor
 from vehloc.geometry.silhouette_start import silhouette_start_headings_deg
-from vehloc.geometry.site_calibration import CameraCalibration
-from vehloc.geometry.timing import StageClock
-from vehloc.geometry.tracks import TrackVotes
+from vehloc.geometry.camera_calibration import CameraCalibration
+from vehloc.geometry.pipeline.timing import StageClock
+from vehloc.geometry.pipeline.tracker import StoppedVehicleTracker, TrackerParams, VehicleTrack
 from vehloc.geometry.uncertainty import (
     Uncertainty,
     calibration_part,
@@ -159,16 +159,6 @@ class VehicleRecord:
         return rows
 
 
-@dataclass
-class _TrackState:
-    """A track's classification votes and the road points under its box's bottom (frames where the frame's
-    edge does not cut it)."""
-
-    votes: TrackVotes
-    ground_points_mm: list[np.ndarray] = field(default_factory=list)
-    ground_frames: list[int] = field(default_factory=list)
-
-
 class Localizer:
     """Feed it frames in order; it returns the records of the vehicles localized at each frame."""
 
@@ -189,10 +179,9 @@ class Localizer:
         self.calibration = calibration
         self.params = params or PipelineParams.from_config()
         self.extractor = VehicleRoiExtractor(roi)
-        self.tracker = StoppedVehicleTracker(tracker)
+        self.tracker = StoppedVehicleTracker(self.params.vote_frames, tracker)
         self.detectors = detectors or DetectorParams.from_config()
         self.fit_params = fit or FitParams.from_config()
-        self.states: dict[int, _TrackState] = {}
         self.clock = clock or StageClock()
 
     def process(self, frame_index: int, frame_bgr: np.ndarray) -> list[VehicleRecord]:
@@ -202,58 +191,54 @@ class Localizer:
         with self.clock.stage("background"):
             boxes = self.extractor.apply(frame_bgr)
         with self.clock.stage("tracking"):
-            stopped = self.tracker.update(boxes, frame_index)
-            live = [t for t in self.tracker.tracks if t.frames[-1] == frame_index]
-            for track in live:
-                state = self.states.setdefault(track.track_id, _TrackState(TrackVotes(self.params.vote_frames)))
-                state.votes.add(frame_bgr, track.box)
+            update = self.tracker.update(boxes, frame_index)
+            for track in update.seen:
+                track.votes.add(frame_bgr, track.box)
                 if track.box.touches_border(width_px, height_px, self.params.border_margin_px):
                     continue  # the frame cuts the vehicle: its box's bottom is not where it stands
                 bottom = np.array([[track.box.centre_px[0], track.box.y1 - 1.0]])
-                state.ground_points_mm.append(self.calibration.road_to_image.inverse(bottom)[0])
-                state.ground_frames.append(frame_index)
-        due = live if self.params.every_frame else stopped
+                track.add_ground_point(self.calibration.road_to_image.inverse(bottom)[0], frame_index)
+        due = update.seen if self.params.every_frame else update.stopped
         return [self.localize(track, frame_index, frame_bgr) for track in due]
 
-    def travel_heading_deg(self, track: Track) -> float | None:
+    def travel_heading_deg(self, track: VehicleTrack) -> float | None:
         """The road direction the track's box bottom moved in, when it moved far enough to tell."""
-        points = [p for p in self.states[track.track_id].ground_points_mm if np.all(np.isfinite(p))]
+        points = [p for p in track.ground_points_mm if np.all(np.isfinite(p))]
         if len(points) < 2 or np.linalg.norm(points[-1] - points[0]) < self.params.min_travel_mm:
             return None
         return heading_of(points[-1] - points[0])
 
-    def is_moving(self, track: Track) -> bool:
+    def is_moving(self, track: VehicleTrack) -> bool:
         """With `heading_from_motion`, whether the vehicle moves (is not still to the tracker): its heading is
         then its path's."""
         return self.params.heading_from_motion and not self.tracker.is_still(track)
 
-    def motion_heading(self, track: Track, frame_index: int) -> PathHeading | None:
+    def motion_heading(self, track: VehicleTrack, frame_index: int) -> PathHeading | None:
         """The heading of the track's box bottom's road path over the last `motion_window_frames` frames (since
         its last gap of more than `motion_max_gap_frames`), with its 1-sigma; None when it spans less than
         `min_travel_mm`."""
-        state = self.states[track.track_id]
-        points, frames = recent_path(state.ground_points_mm, state.ground_frames, frame_index,
+        points, frames = recent_path(track.ground_points_mm, track.ground_frames, frame_index,
                                      self.params.motion_window_frames, self.params.motion_max_gap_frames)
         return path_heading(points, frames, self.params.min_travel_mm, self.calibration.road_to_image,
                             self.params.motion_jitter_px)
 
-    def visible_end(self, track: Track) -> str | None:
+    def visible_end(self, track: VehicleTrack) -> str | None:
         """`front` when the vehicle came towards the camera, `rear` when it went away, None when it did not
         move far enough to tell."""
-        points = [p for p in self.states[track.track_id].ground_points_mm if np.all(np.isfinite(p))]
+        points = [p for p in track.ground_points_mm if np.all(np.isfinite(p))]
         if len(points) < 2 or np.linalg.norm(points[-1] - points[0]) < self.params.min_travel_mm:
             return None
         foot = self.calibration.camera.centre_mm[:2]
         return "front" if np.linalg.norm(points[-1] - foot) < np.linalg.norm(points[0] - foot) else "rear"
 
-    def fit_starts(self, track: Track, mask: np.ndarray, roi: Box, travel: float | None,
+    def fit_starts(self, track: VehicleTrack, mask: np.ndarray, roi: Box, travel: float | None,
                    motion: PathHeading | None) -> tuple[str, list[float]]:
         """Where the model fit starts when no key points are found (`FIT_STARTS`) and the headings it starts from:
         a moving vehicle from its path's heading and a stopped one from its travel's (`fit_from_travel`, when it
         travelled far enough to tell), else a stopped one from its silhouette's principal road direction and its
         perpendicular (`fit_from_silhouette`); no heading without the fit, or when the road point under the box's
         bottom is unknown."""
-        nearest_mm = self.states[track.track_id].ground_points_mm
+        nearest_mm = track.ground_points_mm
         if not (self.params.fit and nearest_mm and np.all(np.isfinite(nearest_mm[-1]))):
             return "", []
         if self.params.fit_from_travel and travel is not None:
@@ -263,13 +248,13 @@ class Localizer:
         offset = np.array([roi.x0, roi.y0], dtype=float)
         return "silhouette", list(silhouette_start_headings_deg(mask, offset, self.calibration.road_to_image))
 
-    def _start_box(self, track: Track, spec: VehicleSpec, heading_deg: float, start: str, weights: np.ndarray,
+    def _start_box(self, track: VehicleTrack, spec: VehicleSpec, heading_deg: float, start: str, weights: np.ndarray,
                    roi: Box) -> VehicleBox:
         """The box a fit without key points starts from: its footprint's nearest point the road point under the box's
         bottom (`travel_start_box`); from the silhouette, the best overlap of the boxes moved from there along the
         line of sight by `pipeline.silhouette_search_mm` (a shadow or a lost bumper moves the box's bottom)."""
         foot = self.calibration.camera.centre_mm[:2]
-        nearest_mm = self.states[track.track_id].ground_points_mm[-1]
+        nearest_mm = track.ground_points_mm[-1]
         box = travel_start_box(nearest_mm, foot, spec.length_mm, spec.width_mm, heading_deg)
         if start != "silhouette":
             return box
@@ -280,13 +265,13 @@ class Localizer:
         return best_start(self.calibration.camera, weights, roi, self.classifier.metadata.shape_of(spec.model_id),
                           candidates, self.fit_params.supersample)
 
-    def localize(self, track: Track, frame_index: int, frame_bgr: np.ndarray) -> VehicleRecord:
+    def localize(self, track: VehicleTrack, frame_index: int, frame_bgr: np.ndarray) -> VehicleRecord:
         """The record of one tracked vehicle at this frame."""
         box = track.box
         height_px, width_px = frame_bgr.shape[:2]
         if box.touches_border(width_px, height_px, self.params.border_margin_px):
             return VehicleRecord(track.track_id, frame_index, box, NOT_LOCALIZED, "the vehicle touches the frame's edge")
-        votes = self.states[track.track_id].votes
+        votes = track.votes
         if votes.empty:
             return VehicleRecord(track.track_id, frame_index, box, NOT_LOCALIZED,
                                  f"its box ({box.width_px}x{box.height_px} px) was never big enough to classify "

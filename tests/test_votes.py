@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from vehloc.data.boxes import Box
-from vehloc.geometry.tracks import TrackVotes
+from vehloc.geometry.pipeline.votes import TrackVotes
 
 
 class CountingClassifier:

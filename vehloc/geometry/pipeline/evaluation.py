@@ -12,10 +12,10 @@ import pandas as pd
 
 from vehloc.atomic import write_text
 from vehloc.data.specs import display_name
-from vehloc.geometry.drawing import write_birds_eye
-from vehloc.geometry.localize import LOCALIZED, VehicleRecord
+from vehloc.geometry.pipeline.drawing import write_birds_eye
+from vehloc.geometry.pipeline.localize import LOCALIZED, VehicleRecord
 from vehloc.geometry.placement import VehicleBox
-from vehloc.geometry.table2 import (
+from vehloc.geometry.pipeline.table2 import (
     PAPER_DIMENSION_PCT,
     PAPER_HEADING_DEG,
     PAPER_POSITION_PCT,

@@ -1,0 +1,65 @@
+"""What localization needs of a camera's calibration (`CameraCalibration`), and reading it from the
+`calibration.json` that `vehloc-calibrate` writes."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from vehloc.data.text import read_json
+from vehloc.geometry.calibration import CalibrationError, camera_from_homography
+from vehloc.geometry.camera import PinholeCamera
+from vehloc.geometry.projective import ProjectiveTransform
+
+
+@dataclass(frozen=True)
+class CameraCalibration:
+    """What localization needs of a calibration: the road homography, the camera when it can be recovered
+    from it, the image size it holds for and its reprojection error."""
+
+    road_to_image: ProjectiveTransform
+    image_size_px: tuple[int, int]
+    camera: PinholeCamera | None
+    rms_reprojection_px: float
+    source: str
+
+    @classmethod
+    def from_homography(cls, homography: np.ndarray, image_size_px: tuple[int, int], rms_reprojection_px: float,
+                        source: str) -> CameraCalibration:
+        road_to_image = ProjectiveTransform.road_to_image(homography, *image_size_px)
+        try:
+            camera = camera_from_homography(road_to_image, *image_size_px).camera
+        except CalibrationError:
+            camera = None
+        return cls(road_to_image, tuple(image_size_px), camera, float(rms_reprojection_px), source)
+
+    def check_image_size(self, width_px: int, height_px: int, what: str) -> None:
+        """CalibrationError when `what` (a video or image) is not of the calibrated size."""
+        if (width_px, height_px) != self.image_size_px:
+            raise CalibrationError(
+                f"{self.source} calibrates {self.image_size_px[0]}x{self.image_size_px[1]} px images, "
+                f"{what} is {width_px}x{height_px} px"
+            )
+
+
+def read_calibration(path: str | Path) -> CameraCalibration:
+    """The calibration written by `vehloc-calibrate` (`calibration.json`); CalibrationError naming the file
+    when it is missing or not one."""
+    path = Path(path)
+    if not path.is_file():
+        raise CalibrationError(f"{path}: calibration file does not exist")
+    content = read_json(path, CalibrationError)
+    try:
+        homography = np.array(content["homography_world_mm_to_image_px"], dtype=float)
+        size = tuple(int(v) for v in content["image_size_px"])
+        rms = float(content["rms_reprojection_px"])
+    except (KeyError, TypeError, ValueError) as err:
+        raise CalibrationError(f"{path}: not a calibration.json of vehloc-calibrate ({type(err).__name__}: {err})") from None
+    if homography.shape != (3, 3) or not np.all(np.isfinite(homography)) or len(size) != 2 or min(size) <= 0:
+        raise CalibrationError(f"{path}: needs a 3x3 homography of finite numbers and a positive image size")
+    try:
+        return CameraCalibration.from_homography(homography, size, rms, str(path))
+    except ValueError as err:
+        raise CalibrationError(f"{path}: {err}") from None
