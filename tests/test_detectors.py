@@ -12,7 +12,8 @@ import pytest
 from detector_scenes import BLACK, SILVER, heading_error_deg, render_case
 from vehloc.data.boxes import Box
 from vehloc.geometry.footprint import FootprintParams, detect_footprint
-from vehloc.geometry.keypoints import DetectorParams, NotLocalized, paper_placement
+from vehloc.geometry.keypoints import DetectorParams, paper_placement
+from vehloc.geometry.outcome import NotPlaced, ReasonCode
 from vehloc.geometry.plate import PlateParams, detect_plate
 from vehloc.geometry.roi import Silhouette
 from vehloc.geometry.camera_calibration import CameraCalibration
@@ -71,7 +72,8 @@ def test_a_plate_is_taken_only_with_a_plates_width_on_the_road():
     params = DetectorParams.from_config()
     assert paper_placement(case.roi_bgr, silhouette, roi, calibration, spec, shape, params, "rear").kind == "plate"
     narrow = dataclasses.replace(params, plate=dataclasses.replace(params.plate, width_range_mm=(10.0, 20.0)))
-    with pytest.raises(NotLocalized, match=r"found no wheel; a plate-like part would be (\d+)-(\d+) mm wide") as caught:
-        paper_placement(case.roi_bgr, silhouette, roi, calibration, spec, shape, narrow, "rear")
-    low_mm, high_mm = (float(v) for v in re.search(r"(\d+)-(\d+) mm wide", str(caught.value)).groups())
+    refused = paper_placement(case.roi_bgr, silhouette, roi, calibration, spec, shape, narrow, "rear")
+    assert isinstance(refused, NotPlaced) and refused.code == ReasonCode.NO_KEY_POINTS
+    low_mm, high_mm = (float(v) for v in re.search(r"found no wheel; a plate-like part would be (\d+)-(\d+) mm wide",
+                                                   refused.message).groups())
     assert low_mm < 440.0 < high_mm

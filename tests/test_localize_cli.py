@@ -52,7 +52,7 @@ def test_a_vehicle_cut_by_the_frame_edge_is_not_localized_with_the_reason(cut_sc
     records = pd.read_csv(tmp_path / "run" / "records.csv")
     assert len(records) == 1
     assert records.loc[0, "status"] == "not localized"
-    assert records.loc[0, "reason"] == "the vehicle touches the frame's edge"
+    assert records.loc[0, "reason_code"] == "touches_edge"
     assert "centre_x_mm" not in records.columns  # no invented position
 
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from vehloc.geometry.camera import PinholeCamera
-from vehloc.geometry.pipeline.localize import PipelineParams
+from vehloc.geometry.pipeline.settings import PipelineParams
 from vehloc.geometry.placement import axis_difference_deg
 from vehloc.geometry.silhouette_start import lower_outline_px, principal_road_heading_deg, silhouette_start_headings_deg
 from vehloc.synth.catalog import model_by_id

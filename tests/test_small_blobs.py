@@ -9,8 +9,9 @@ import cv2
 import numpy as np
 from bad_input import write_handmade_onnx
 
-from vehloc.geometry.pipeline.localize import LOCALIZED, NOT_LOCALIZED, Localizer, PipelineParams
-from vehloc.geometry.roi import RoiParams
+from vehloc.geometry.outcome import ReasonCode
+from vehloc.geometry.pipeline.localize import Localizer, Status
+from vehloc.geometry.pipeline.settings import LocalizeSettings
 from vehloc.geometry.camera_calibration import CameraCalibration
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.synth.scene import CameraSpec
@@ -41,12 +42,13 @@ def test_blobs_too_small_to_classify_are_records_and_the_run_goes_on(tmp_path: P
     road = np.clip(rng.normal(110.0, 12.0, (240, 320, 3)), 0, 255)
     calibration = CameraCalibration(CAMERA.road_to_image(), (320, 240), CAMERA, 0.5, "test camera")
     classifier = VehicleClassifier.from_onnx(write_handmade_onnx(tmp_path / "model.onnx"))
-    localizer = Localizer(classifier, calibration, params=PipelineParams.from_config(every_frame=True),
-                          roi=RoiParams.from_config(scale=1.0, close_kernel_px=5, history_frames=HISTORY_FRAMES))
+    settings = LocalizeSettings.compose(["pipeline.every_frame=true", "roi.scale=1.0", "roi.close_kernel_px=5",
+                                         f"roi.history_frames={HISTORY_FRAMES}"])
+    localizer = Localizer(classifier, calibration, settings)
     records = [record for index in range(40)  # every frame: before the fix the caption bar raised ImageInputError
                for record in localizer.process(index, frame_with_overlays(road, index, rng))]
-    too_small = [r for r in records if "never big enough to classify" in r.reason]
-    assert too_small and all(r.status == NOT_LOCALIZED and min(r.box_px.width_px, r.box_px.height_px) < 8
+    too_small = [r for r in records if r.reason_code == ReasonCode.TOO_SMALL_TO_CLASSIFY]
+    assert too_small and all(r.status == Status.NOT_LOCALIZED and min(r.box_px.width_px, r.box_px.height_px) < 8
                              for r in too_small)
     assert any(r.box_px.y0 >= 215 and r.box_px.width_px >= 50 for r in too_small)  # the caption bar
-    assert not [r for r in records if r.status == LOCALIZED]
+    assert not [r for r in records if r.status == Status.LOCALIZED]

@@ -5,6 +5,7 @@ under the box's bottom, the centre lies half the footprint's extent beyond it al
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +15,9 @@ from bad_input import write_handmade_onnx
 from vehloc.config import ConfigError
 from vehloc.data.boxes import Box
 from vehloc.geometry.camera import PinholeCamera
-from vehloc.geometry.pipeline.localize import NOT_LOCALIZED, Localizer, PipelineParams, VehicleRecord, travel_start_box
+from vehloc.geometry.outcome import ReasonCode
+from vehloc.geometry.pipeline.localize import Localizer, Status, travel_start_box, VehicleRecord
+from vehloc.geometry.pipeline.settings import LocalizeSettings, PipelineParams
 from vehloc.geometry.motion import path_heading, recent_path
 from vehloc.geometry.roi import Silhouette
 from vehloc.geometry.camera_calibration import CameraCalibration
@@ -213,7 +216,7 @@ def records_of_a_far_car(bottoms_px: np.ndarray, params: PipelineParams,
     calibration = CameraCalibration(ROAD_TO_IMAGE, (1280, 720), CAMERA, 0.5, "test camera")
     boxes = [[Box(620, int(round(b)) - 24, 660, int(round(b)))] for b in bottoms_px]
     localizer = Localizer(VehicleClassifier.from_onnx(write_handmade_onnx(tmp_path / "model.onnx")), calibration,
-                          params=params)
+                          dataclasses.replace(LocalizeSettings.compose(), pipeline=params))
     localizer.extractor = _EmptyForeground(boxes)
     frame = np.zeros((720, 1280, 3), np.uint8)
     return [record for index in range(len(boxes)) for record in localizer.process(index, frame)], localizer
@@ -228,11 +231,10 @@ def test_a_moving_vehicle_whose_path_does_not_tell_its_heading_is_not_localized(
     bottoms_px = ROAD_TO_IMAGE(np.array([[0.0, 40000.0], [0.0, 38800.0]]))[:, 1]
     records, localizer = records_of_a_far_car(
         bottoms_px, PipelineParams.from_config(every_frame=True, max_motion_sigma_deg=max_sigma_deg), tmp_path)
-    assert [r.status for r in records] == [NOT_LOCALIZED, NOT_LOCALIZED]
+    assert [r.status for r in records] == [Status.NOT_LOCALIZED, Status.NOT_LOCALIZED]
     path = localizer.motion_heading(localizer.tracker.tracks[0], 1)
     assert path.sigma_deg > 2.0 and path.points == 2
-    assert ("its path's heading is uncertain" in records[1].reason) is unclear
-    assert records[1].reason.startswith("no footprint lines")
+    assert (records[1].reason_code == ReasonCode.PATH_HEADING_UNCERTAIN) is unclear
 
 
 @pytest.mark.parametrize(("min_speed_sigmas", "unclear"), [(3.0, True), (0.0, False)])
@@ -245,8 +247,7 @@ def test_a_moving_vehicle_whose_path_does_not_tell_which_way_is_not_localized(
     bottoms_px = np.round(ROAD_TO_IMAGE(np.array([[0.0, 40000.0]]))[0, 1]) + np.array([0, 5, 0, 5, 1, 5])
     params = PipelineParams.from_config(every_frame=True, max_motion_sigma_deg=90.0, min_speed_sigmas=min_speed_sigmas)
     records, localizer = records_of_a_far_car(bottoms_px, params, tmp_path)
-    assert all(r.status == NOT_LOCALIZED for r in records)
+    assert all(r.status == Status.NOT_LOCALIZED for r in records)
     path = localizer.motion_heading(localizer.tracker.tracks[0], 5)
     assert path.speed_sigmas < 3.0 and path.sigma_deg < 90.0
-    assert ("its path does not tell which way" in records[-1].reason) is unclear
-    assert records[-1].reason.startswith("no footprint lines")
+    assert records[-1].reason_code == (ReasonCode.PATH_WAY_UNCLEAR if unclear else ReasonCode.NO_FOOTPRINT_LINES)

@@ -22,7 +22,8 @@ import pandas as pd
 
 from vehloc.atomic import write_text
 from vehloc.data.boxes import Box
-from vehloc.geometry.pipeline.localize import Localizer, PipelineParams
+from vehloc.geometry.pipeline.localize import Localizer
+from vehloc.geometry.pipeline.settings import LocalizeSettings
 from vehloc.geometry.camera_calibration import read_calibration
 from vehloc.geometry.pipeline.timing import StageClock
 from vehloc.geometry.pipeline.video import iter_frames
@@ -50,7 +51,8 @@ def run_mode(video: Path, classifier: VehicleClassifier, calibration_path: Path,
     """Run the pipeline over the video; the clock, the frame count, the pipeline's seconds at each frame with
     one vehicle in view, and a box and frame of a vehicle (for the classifier's own timing)."""
     clock = StageClock()
-    localizer = Localizer(classifier, read_calibration(calibration_path), PipelineParams.from_config(every_frame=every_frame),
+    localizer = Localizer(classifier, read_calibration(calibration_path),
+                          LocalizeSettings.compose([f"pipeline.every_frame={str(every_frame).lower()}"]),
                           clock=clock)
     frames = iter_frames(video)
     frame_count, one_in_view_s, sample = 0, [], (None, None)

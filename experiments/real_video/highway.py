@@ -19,7 +19,8 @@ import pandas as pd
 
 from vehloc.atomic import write_image, write_text
 from vehloc.geometry.calibration import CalibrationParams
-from vehloc.geometry.roi import RoiParams, VehicleRoiExtractor
+from vehloc.geometry.pipeline.settings import LocalizeSettings
+from vehloc.geometry.roi import VehicleRoiExtractor
 from vehloc.geometry.site import read_site
 from vehloc.geometry.pipeline.site_calibration import calibrate_site, write_calibration_files
 from vehloc.geometry.pipeline.video import iter_frames, median_background
@@ -34,14 +35,16 @@ CALIBRATION_OVERRIDES = {"pinhole_model": True, "refine_rounds": 5, "edge_search
 # Points on the face of the left curb, read off the median background by eye (px).
 LEFT_CURB_PX = np.array([[62.0, 160.0], [40.0, 178.0], [22.0, 190.0]])
 SHOWN_FRAMES = (300, 500, 800, 1200, 1500, 1650)
-LOW_RESOLUTION_ROI = {"scale": 1.0, "close_kernel_px": 5, "min_area_fraction": 0.002}
-"""At 320x240 the background model runs at full size with a smaller closing, and a blob is a vehicle from 0.2 % of
-the frame (154 px; the default 0.1 % is 77 px here, fragments of cars whose fits leave the road)."""
+EXPERIMENT = "experiment=highway"
+"""The clip's localization settings, `conf/localize/experiment/highway.yaml` (as `vehloc-localize experiment=highway`):
+every frame recorded, the fit from the track's travel, the background model at full size with a smaller closing,
+and a blob a vehicle from 0.2 % of the frame (154 px; the default 0.1 % is 77 px here, fragments of cars whose fits
+leave the road)."""
 
 
 def run_roi(out_dir: Path) -> tuple[pd.DataFrame, int]:
     """Boxes of every frame and the frame count; a picture of the frames in SHOWN_FRAMES with their boxes."""
-    extractor = VehicleRoiExtractor(RoiParams.from_config(**LOW_RESOLUTION_ROI))
+    extractor = VehicleRoiExtractor(LocalizeSettings.compose([EXPERIMENT]).roi)
     rows, shown = [], []
     for index, frame in enumerate(iter_frames(VIDEO)):
         boxes = extractor.apply(frame)

@@ -21,15 +21,15 @@ import pandas as pd
 
 from vehloc.atomic import write_image, write_text
 from vehloc.geometry.pipeline.drawing import METHOD_COLOURS_BGR, draw_cuboid
-from vehloc.geometry.pipeline.localize import LOCALIZED, Localizer, PipelineParams, VehicleRecord
-from vehloc.geometry.roi import RoiParams
+from vehloc.geometry.pipeline.localize import Localizer, Status, VehicleRecord
+from vehloc.geometry.pipeline.settings import LocalizeSettings
 from vehloc.geometry.camera_calibration import read_calibration
 from vehloc.geometry.pipeline.video import iter_frames
 from vehloc.geometry.pipeline.video_localization import localize_video
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.tables import markdown_table
 
-from highway import LEFT_CURB_PX, LOW_RESOLUTION_ROI, VIDEO
+from highway import EXPERIMENT, LEFT_CURB_PX, VIDEO
 
 YELLOW_EDGE_X_MM = 3658.0 + 50.0  # the outer edge of the yellow line (site file: its centre, 100 mm wide)
 MAX_OFF_LANE_DEG = 5.0
@@ -44,7 +44,7 @@ def off_lane_deg(heading_deg: np.ndarray) -> np.ndarray:
 def checks(records: pd.DataFrame, left_curb_x_mm: float) -> pd.DataFrame:
     """Per method: localized records, their tracks, and how many lie on the road and along the lane."""
     rows = []
-    for method, group in records[records.status == LOCALIZED].groupby("method"):
+    for method, group in records[records.status == Status.LOCALIZED].groupby("method"):
         on_road = group.centre_x_mm.between(left_curb_x_mm, YELLOW_EDGE_X_MM)
         along = off_lane_deg(group.heading_deg) <= MAX_OFF_LANE_DEG
         rows.append({"method": method, "records": len(group), "tracks": group.track_id.nunique(),
@@ -59,7 +59,7 @@ def overlay(records: list[VehicleRecord], localizer: Localizer, path: Path) -> l
     """The frames with the most localized vehicles, their boxes drawn in (paper green, fit blue); the frames."""
     by_frame: dict[int, list[VehicleRecord]] = {}
     for record in records:
-        if record.status == LOCALIZED:
+        if record.status == Status.LOCALIZED:
             by_frame.setdefault(record.frame, []).append(record)
     busiest = sorted(sorted(by_frame, key=lambda f: -len(by_frame[f]))[:OVERLAY_FRAMES])
     tiles = []
@@ -88,9 +88,7 @@ def main() -> None:
     args = parser.parse_args()
 
     calibration = read_calibration(args.calibration)
-    localizer = Localizer(VehicleClassifier.from_onnx(args.model), calibration,
-                          params=PipelineParams.from_config(every_frame=True, fit_from_travel=True),
-                          roi=RoiParams.from_config(**LOW_RESOLUTION_ROI))
+    localizer = Localizer(VehicleClassifier.from_onnx(args.model), calibration, LocalizeSettings.compose([EXPERIMENT]))
     run = localize_video(localizer, VIDEO, args.out, max_frames=args.max_frames, pictures=False)
     records = pd.read_csv(args.out / "records.csv")
     left_curb_x_mm = float(calibration.road_to_image.inverse(LEFT_CURB_PX)[:, 0].mean())
@@ -98,7 +96,7 @@ def main() -> None:
     write_text(args.out / "checks.csv", table.to_csv(index=False))
     shown = overlay(list(run.records), localizer, args.out / "overlay.png")
     # one line per reason: the fit's overlap and the path's sigmas, which vary per record, are left out of the grouping
-    reasons = (records[records.status != LOCALIZED].reason
+    reasons = (records[records.status != Status.LOCALIZED].reason
                .str.replace(r"overlap [0-9.]+ <", "overlap <", regex=True)
                .str.replace(r"sigma [0-9.]+ deg >", "sigma >", regex=True)
                .str.replace(r"its speed along it, [0-9.]+ sigma, is below", "its speed along it is below", regex=True)

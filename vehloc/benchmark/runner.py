@@ -21,8 +21,9 @@ from vehloc.benchmark.visibility import TYRE_NAMES, Visibility, VisibilityParams
 from vehloc.data.boxes import Box
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.pipeline.drawing import METHOD_COLOURS_BGR, draw_cuboid
-from vehloc.geometry.pipeline.evaluation import MIN_MATCH_IOU
-from vehloc.geometry.pipeline.localize import LOCALIZED, Localizer, VehicleRecord
+from vehloc.geometry.pipeline.evaluation import MIN_MATCH_IOU, NOT_TRACKED_TO_STOP
+from vehloc.geometry.pipeline.localize import Localizer, Status, VehicleRecord
+from vehloc.geometry.pipeline.settings import LocalizeSettings
 from vehloc.geometry.placement import VehicleBox
 from vehloc.geometry.camera_calibration import CameraCalibration
 from vehloc.geometry.pipeline.table2 import pose_error, true_box_from_tyres
@@ -107,9 +108,10 @@ def case_row(case: BenchmarkCase, split: str, seen: Visibility, record: VehicleR
                               **{f"tyre_{name}": flag for name, flag in zip(TYRE_NAMES, seen.tyres)},
                               "two_tyres_visible": seen.two_tyres, "key_points_visible": seen.key_points}
     if record is None:
-        return row | {"status": "not localized", "reason": "no vehicle was tracked to a stop there",
-                      "localized": False, "key_point": "", "correct": False}
-    row |= {"status": record.status, "reason": record.reason, "localized": record.status == LOCALIZED,
+        return row | {"status": Status.NOT_LOCALIZED, "reason_code": NOT_TRACKED_TO_STOP.code,
+                      "reason": NOT_TRACKED_TO_STOP.message, "localized": False, "key_point": "", "correct": False}
+    row |= {"status": record.status, "reason_code": record.reason_code or "", "reason": record.reason,
+            "notes": record.notes, "localized": record.status == Status.LOCALIZED,
             "frame": record.frame, "predicted_model": f"{record.make} {record.model}".strip(),
             "correct": record.model_id == case.model_id}
     truth = true_box(case)
@@ -145,15 +147,14 @@ def picture(frame_bgr: np.ndarray, case: BenchmarkCase, camera: PinholeCamera, r
 
 
 def run_case(case: BenchmarkCase, split: str, site: Mapping[str, Any], camera: CameraSpec, draw: DrawParams,
-             seen_params: VisibilityParams, stages: Mapping[str, object] | None = None,
+             seen_params: VisibilityParams, settings: LocalizeSettings | None = None,
              classifier: VehicleClassifier | None = None) -> CaseOutcome:
-    """Render, localize and score one case with the stage settings `stages` (`Localizer` keywords; None: the
-    defaults); `classifier` None gives the car's true model (the geometry alone)."""
+    """Render, localize and score one case with the localization's `settings` (None: the defaults); `classifier` None gives the car's true model (the geometry alone)."""
     start = time.perf_counter()
     spec = case.scene_spec(site, camera, draw)
     calibration = exact_calibration(camera)
     seen = visibility(model_by_id(case.model_id), case.pose, calibration.camera, case.plates, seen_params)
-    localizer = Localizer(classifier or TrueModelClassifier(case.model_id), calibration, **(stages or {}))
+    localizer = Localizer(classifier or TrueModelClassifier(case.model_id), calibration, settings)
     with tempfile.TemporaryDirectory(prefix="vehloc-benchmark-") as folder:
         run = localize_stopped_car(spec, localizer, Path(folder))
     mm_per_px = road_mm_per_px(calibration.road_to_image, true_box(case).centre_mm)

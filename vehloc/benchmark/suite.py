@@ -18,7 +18,7 @@ from vehloc.benchmark.cases import BenchmarkCase, DrawParams, cameras_from_confi
 from vehloc.benchmark.runner import CaseOutcome, run_case, thumbnail
 from vehloc.benchmark.visibility import VisibilityParams
 from vehloc.config import ConfigError, SettingError, build_params
-from vehloc.geometry.pipeline.localize import stage_params
+from vehloc.geometry.pipeline.settings import LocalizeSettings
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.synth.catalog import model_by_id
 from vehloc.synth.road import RoadLayout
@@ -38,7 +38,7 @@ class BenchmarkSettings:
     model: Path | None
     workers: int
     site: dict[str, Any]
-    localize: dict[str, object]
+    localize: LocalizeSettings
     cameras: dict[str, CameraSpec]
     draw: DrawParams
     visibility: VisibilityParams
@@ -71,7 +71,7 @@ class BenchmarkSettings:
             RoadLayout(**values["site"]["layout"])
         except SettingError as err:
             raise ConfigError(str(err)) from None
-        localize = stage_params(values["localize"])
+        localize = LocalizeSettings.from_mapping(values["localize"])
         seeds = {name: tuple(range(first[name], first[name] + cases)) for name in chosen}
         return cls(seeds, None if model is None else Path(model), workers, dict(values["site"]), localize, cameras,
                    draw, visibility)

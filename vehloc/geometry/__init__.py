@@ -11,9 +11,10 @@ from vehloc.geometry.calibration import Calibration, CalibrationError, Calibrati
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.camera_calibration import CameraCalibration, read_calibration
 from vehloc.geometry.footprint import FootprintLines, FootprintParams, detect_footprint
-from vehloc.geometry.keypoints import DetectorParams, NotLocalized, Placement, paper_placement
+from vehloc.geometry.keypoints import DetectorParams, Placement, paper_placement
 from vehloc.geometry.markers import DetectedMarker, MarkerDetectionParams, detect_markers
 from vehloc.geometry.model_fit import FitParams, ModelFit, best_start, fit_model
+from vehloc.geometry.outcome import NotPlaced, ReasonCode
 from vehloc.geometry.motion import PathHeading, path_heading, recent_path
 from vehloc.geometry.placement import VehicleBox, direction_of, facing, heading_of
 from vehloc.geometry.plate import Plate, PlateParams, detect_plate
@@ -28,7 +29,7 @@ from vehloc.geometry.wheels import WheelParams, Wheels, detect_wheels
 __all__ = [
     "Calibration", "CalibrationError", "CalibrationParams", "CameraCalibration", "CarTruth", "DetectedMarker",
     "DetectorParams", "FitParams", "FootprintLines", "FootprintParams", "HorizonError", "MarkerDetectionParams",
-    "ModelFit", "NotLocalized", "PathHeading", "PinholeCamera", "Placement", "Plate", "PlateParams",
+    "ModelFit", "NotPlaced", "PathHeading", "PinholeCamera", "Placement", "Plate", "ReasonCode", "PlateParams",
     "ProjectiveTransform", "RoiParams", "SceneTruth", "SceneTruthError", "Silhouette", "Site", "SiteError",
     "Uncertainty", "VehicleBox", "VehicleRoiExtractor", "WheelParams", "Wheels", "best_start", "calibrate",
     "camera_from_homography", "detect_footprint", "detect_markers", "detect_plate", "detect_wheels", "direction_of",

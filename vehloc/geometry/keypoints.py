@@ -24,11 +24,11 @@ from vehloc.config import build_params
 from vehloc.data.boxes import Box
 from vehloc.data.shapes import VehicleShape
 from vehloc.data.specs import VehicleSpec
-from vehloc.errors import VehlocError
 from vehloc.geometry.footprint import FootprintLines, FootprintParams, detect_footprint
 from vehloc.geometry.placement import VehicleBox, direction_of, heading_of, place_on_end, place_on_side
 from vehloc.geometry.plate import Plate, PlateParams, detect_plate
-from vehloc.geometry.projective import ProjectiveTransform
+from vehloc.geometry.outcome import NotPlaced, ReasonCode
+from vehloc.geometry.projective import HorizonError, ProjectiveTransform
 from vehloc.geometry.roi import Silhouette
 from vehloc.geometry.camera_calibration import CameraCalibration
 from vehloc.geometry.wheels import WheelParams, detect_wheels
@@ -37,10 +37,6 @@ C_DISTANCE_MM = 1000.0
 """How far along the reference direction the paper's point C is taken."""
 END_DEPTH_MM = 150.0
 """The depth of a vehicle's end face, for the height of its lowest point."""
-
-
-class NotLocalized(VehlocError):
-    """The key points cannot be found; the message says why."""
 
 
 @dataclass(frozen=True)
@@ -145,28 +141,40 @@ def implausible_plate(plate: Plate, calibration: CameraCalibration, params: Plat
     return None
 
 
-def below_plate_mm(plate_centre_mm: np.ndarray, front_line_mm: np.ndarray, camera_foot_mm: np.ndarray) -> np.ndarray:
+def below_plate_mm(plate_centre_mm: np.ndarray, front_line_mm: np.ndarray,
+                   camera_foot_mm: np.ndarray) -> np.ndarray | NotPlaced:
     """O: where the vertical through the plate's middle P meets the front footprint line, on the road. The
     vertical's image maps to the road as the line from the camera's foot through P's road image."""
     vertical = np.cross([*camera_foot_mm, 1.0], [*plate_centre_mm, 1.0])
     point = np.cross(vertical, front_line_mm)
     if abs(point[2]) < 1e-12:
-        raise NotLocalized("the plate's vertical runs parallel to the front footprint line")
+        return NotPlaced(ReasonCode.PLATE_PARALLEL_TO_FRONT, "the plate's vertical runs parallel to the front footprint line")
     return point[:2] / point[2]
 
 
 def paper_placement(
     roi_bgr: np.ndarray, silhouette: Silhouette, roi: Box, calibration: CameraCalibration, spec: VehicleSpec,
     shape: VehicleShape, params: DetectorParams, visible_end: str | None = None,
-) -> Placement:
+) -> Placement | NotPlaced:
     """The paper's placement of the predicted model's box (`spec`) from the vehicle in `roi` (its crop and
-    silhouette); NotLocalized saying why when the key points cannot be found.
+    silhouette); `NotPlaced` saying why when the key points cannot be found or a key point maps to no road point
+    (on or above the horizon).
 
     Plate branch: the length axis is perpendicular to the plate's edges (when they agree with the body's
     lines); the front footprint line is the lower edge at the visible end of the silhouette trimmed of
     the shadow below it; that edge is the bumper's, a bumper's height above the road, so it is lowered to the
     road by that height, the predicted model's (`shape`; `visible_end` `front` or `rear` when known). Wheel
     branch: the lines of the whole silhouette, whose dark tyres reach the road."""
+    try:
+        return _placement(roi_bgr, silhouette, roi, calibration, spec, shape, params, visible_end)
+    except HorizonError as err:
+        return NotPlaced(ReasonCode.ON_HORIZON, str(err))
+
+
+def _placement(
+    roi_bgr: np.ndarray, silhouette: Silhouette, roi: Box, calibration: CameraCalibration, spec: VehicleSpec,
+    shape: VehicleShape, params: DetectorParams, visible_end: str | None,
+) -> Placement | NotPlaced:
     road_to_image, offset = calibration.road_to_image, np.array([roi.x0, roi.y0], dtype=float)
     foot = calibration.camera.centre_mm[:2]
     length_mm, width_mm = spec.length_mm, spec.width_mm
@@ -174,20 +182,26 @@ def paper_placement(
     not_a_plate = None if plate is None else implausible_plate(plate, calibration, params.plate)
     if plate is not None and not_a_plate is None:
         lines = _footprint_lines(roi_bgr, silhouette.trimmed(), offset, calibration, params)
+        if isinstance(lines, NotPlaced):
+            return lines
         p_mm = road_to_image.inverse.map_visible(plate.centre_px[None], "P")[0]
         front_line = lowered_line_mm(lines.front_line_mm, end_bottom_height_mm(shape, visible_end), calibration.camera.centre_mm)
         o_mm = below_plate_mm(p_mm, front_line, foot)
+        if isinstance(o_mm, NotPlaced):
+            return o_mm
         heading = plate_length_heading_deg(plate, road_to_image, lines.length_heading_deg,
                                            params.plate.heading_agreement_deg)
         into = inward(heading, o_mm, foot)
         box = place_on_end(o_mm, into, length_mm, width_mm)
         return Placement(box, "plate", o_mm, o_mm + C_DISTANCE_MM * into, length_mm / 2)
     lines = _footprint_lines(roi_bgr, silhouette.mask, offset, calibration, params)
+    if isinstance(lines, NotPlaced):
+        return lines
     wheels = detect_wheels(roi_bgr, silhouette.mask, offset, road_to_image, foot, params.wheels)
     if wheels is None or len(wheels.wheels) < 2:
         found = "one wheel" if wheels is not None else "no wheel"
-        raise NotLocalized(f"neither a licence plate nor two wheels found (found {found}"
-                           f"{'' if not_a_plate is None else '; ' + not_a_plate})")
+        return NotPlaced(ReasonCode.NO_KEY_POINTS, f"neither a licence plate nor two wheels found (found {found}"
+                                                   f"{'' if not_a_plate is None else '; ' + not_a_plate})")
     contacts_px = np.array([w.outer_contact_px for w in wheels.wheels])
     contacts_mm = road_to_image.inverse.map_visible(contacts_px, "tyre contact")
     q_mm = contacts_mm.mean(axis=0)
@@ -197,9 +211,9 @@ def paper_placement(
 
 
 def _footprint_lines(roi_bgr: np.ndarray, mask: np.ndarray, offset: np.ndarray, calibration: CameraCalibration,
-                     params: DetectorParams) -> FootprintLines:
+                     params: DetectorParams) -> FootprintLines | NotPlaced:
     lines = detect_footprint(roi_bgr, mask, offset, calibration.road_to_image, calibration.camera.centre_mm[:2],
                              params.footprint)
     if lines is None:
-        raise NotLocalized("no footprint lines: the vehicle's edges show no road direction")
+        return NotPlaced(ReasonCode.NO_FOOTPRINT_LINES, "no footprint lines: the vehicle's edges show no road direction")
     return lines

@@ -7,15 +7,13 @@ API."""
 
 from vehloc.geometry.pipeline.evaluation import table2_rows, write_table2
 from vehloc.geometry.pipeline.localize import (
-    LOCALIZED,
-    NOT_LOCALIZED,
     Estimate,
     Localizer,
-    PipelineParams,
+    Status,
     VehicleRecord,
     localize_frames,
-    stage_params,
 )
+from vehloc.geometry.pipeline.settings import LocalizeSettings, PipelineParams
 from vehloc.geometry.pipeline.site_calibration import SiteCalibration, calibrate_site, write_calibration_files
 from vehloc.geometry.pipeline.table2 import PoseError, pose_error
 from vehloc.geometry.pipeline.timing import StageClock
@@ -25,9 +23,9 @@ from vehloc.geometry.pipeline.video_localization import VideoLocalization, local
 from vehloc.geometry.pipeline.votes import TrackVotes
 
 __all__ = [
-    "LOCALIZED", "NOT_LOCALIZED", "Estimate", "Localizer", "MediaError", "PipelineParams", "PoseError",
-    "SiteCalibration", "StageClock", "StoppedVehicleTracker", "TrackState", "TrackVotes", "TrackerParams",
+    "Estimate", "LocalizeSettings", "Localizer", "MediaError", "PipelineParams", "PoseError",
+    "SiteCalibration", "StageClock", "Status", "StoppedVehicleTracker", "TrackState", "TrackVotes", "TrackerParams",
     "TrackerUpdate", "VehicleRecord", "VehicleTrack", "VideoInfo", "VideoLocalization", "calibrate_site",
-    "iter_frames", "localize_frames", "localize_video", "pose_error", "read_still", "stage_params", "table2_rows",
+    "iter_frames", "localize_frames", "localize_video", "pose_error", "read_still", "table2_rows",
     "video_info", "write_calibration_files", "write_table2",
 ]

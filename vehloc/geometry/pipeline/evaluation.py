@@ -13,7 +13,8 @@ import pandas as pd
 from vehloc.atomic import write_text
 from vehloc.data.specs import display_name
 from vehloc.geometry.pipeline.drawing import write_birds_eye
-from vehloc.geometry.pipeline.localize import LOCALIZED, VehicleRecord
+from vehloc.geometry.outcome import NotPlaced, ReasonCode
+from vehloc.geometry.pipeline.localize import Status, VehicleRecord
 from vehloc.geometry.placement import VehicleBox
 from vehloc.geometry.pipeline.table2 import (
     PAPER_DIMENSION_PCT,
@@ -29,6 +30,9 @@ from vehloc.tables import markdown_table
 MIN_MATCH_IOU = 0.5
 METHODS = ("paper", "fit")
 
+
+NOT_TRACKED_TO_STOP = NotPlaced(ReasonCode.NOT_TRACKED_TO_STOP, "no vehicle was tracked to a stop there")
+"""Why a stopped car of the truth has no record: no track stopped over it (Table 2's match found none)."""
 
 def true_box(car: CarTruth) -> VehicleBox:
     """The car's true footprint at its stop, from its four tyre positions and its specifications."""
@@ -56,12 +60,12 @@ def table2_rows(truth: SceneTruth, records: Sequence[VehicleRecord]) -> list[dic
             "scene": truth.name, "car": index, "true_model": display_name(car.make, car.model),
             "true_x_mm": box.centre_mm[0], "true_y_mm": box.centre_mm[1], "true_heading_deg": box.heading_deg,
         }
-        if record is None or record.status != LOCALIZED:
-            reason = "no vehicle was tracked to a stop there" if record is None else record.reason
-            rows.append(base | {"status": "not localized", "reason": reason})
+        if record is None or record.status != Status.LOCALIZED:
+            why = NOT_TRACKED_TO_STOP if record is None else NotPlaced(record.reason_code, record.reason)
+            rows.append(base | {"status": Status.NOT_LOCALIZED, "reason_code": why.code, "reason": why.message})
             continue
         base |= {"predicted_model": display_name(record.make, record.model), "correct": record.model_id == car.model_id,
-                 "frame": record.frame, "status": LOCALIZED}
+                 "frame": record.frame, "status": Status.LOCALIZED, "notes": record.notes}
         for estimate in record.estimates:
             error = pose_error(estimate.box, box)
             rows.append(base | {
@@ -119,7 +123,7 @@ def write_table2(frame: pd.DataFrame, out_dir: Path, title: str) -> list[Path]:
         markdown_table(summary_frame, "{:.2f}") if len(summary_frame) else "No correctly classified case.", "",
         "## Cases", "", markdown_table(cases, "{:.2f}") if len(cases) else "No case.", "",
     ]
-    not_localized = frame[frame["status"] != LOCALIZED] if "status" in frame else frame.iloc[0:0]
+    not_localized = frame[frame["status"] != Status.LOCALIZED] if "status" in frame else frame.iloc[0:0]
     if len(not_localized):
         lines += ["## Not localized", "", markdown_table(not_localized[["scene", "true_model", "reason"]]), ""]
     written.append(write_text(out_dir / "table2.md", "\n".join(lines)))

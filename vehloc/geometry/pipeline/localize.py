@@ -15,26 +15,26 @@ localized, with the reason.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, replace
-from typing import Any
+from enum import StrEnum
 
 import numpy as np
 
-from vehloc.config import build_params, check_range, params_from_config
 from vehloc.data.boxes import Box
 from vehloc.data.specs import VehicleSpec
 from vehloc.errors import VehlocError
-from vehloc.geometry.keypoints import DetectorParams, NotLocalized, paper_placement
-from vehloc.geometry.model_fit import FitParams, best_start, fit_model
+from vehloc.geometry.keypoints import paper_placement
+from vehloc.geometry.model_fit import best_start, fit_model
 from vehloc.geometry.motion import PathHeading, path_heading, recent_path
 from vehloc.geometry.placement import VehicleBox, direction_of, facing, heading_of
-from vehloc.geometry.projective import HorizonError
-from vehloc.geometry.roi import RoiParams, VehicleRoiExtractor
+from vehloc.geometry.outcome import NotPlaced, ReasonCode
+from vehloc.geometry.roi import VehicleRoiExtractor
 from vehloc.geometry.silhouette_start import silhouette_start_headings_deg
 from vehloc.geometry.camera_calibration import CameraCalibration
 from vehloc.geometry.pipeline.timing import StageClock
-from vehloc.geometry.pipeline.tracker import StoppedVehicleTracker, TrackerParams, VehicleTrack
+from vehloc.geometry.pipeline.settings import LocalizeSettings, PipelineParams
+from vehloc.geometry.pipeline.tracker import StoppedVehicleTracker, VehicleTrack
 from vehloc.geometry.uncertainty import (
     Uncertainty,
     calibration_part,
@@ -46,7 +46,15 @@ from vehloc.geometry.uncertainty import (
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.infer.preprocess import MIN_SIDE_PX
 
-LOCALIZED, NOT_LOCALIZED = "localized", "not localized"
+
+
+class Status(StrEnum):
+    """A record's outcome."""
+
+    LOCALIZED = "localized"
+    NOT_LOCALIZED = "not localized"
+
+
 FIT_STARTS = {"key points": "paper's placement", "travel": "track's travel", "silhouette": "silhouette"}
 """Where a model fit starts (`Estimate.start`), and how a record's reason names it."""
 
@@ -65,45 +73,6 @@ def travel_start_box(nearest_mm: np.ndarray, camera_foot_mm: np.ndarray, length_
 
 
 @dataclass(frozen=True)
-class PipelineParams:
-    """Settings of the pipeline itself (`conf/localize/pipeline/default.yaml`)."""
-
-    every_frame: bool
-    vote_frames: int
-    detector_roi_fraction: float
-    border_margin_px: int
-    min_travel_mm: float
-    uncertainty_top_k: int
-    uncertainty_min_probability: float
-    fit: bool
-    fit_from_travel: bool
-    fit_from_silhouette: bool
-    silhouette_search_mm: tuple[float, float, float]
-    heading_from_motion: bool
-    motion_window_frames: int
-    motion_max_gap_frames: int
-    motion_jitter_px: float
-    max_motion_sigma_deg: float
-    min_speed_sigmas: float
-    min_fit_iou: float
-
-    def __post_init__(self) -> None:
-        check_range("motion_window_frames", self.motion_window_frames, 2)
-        check_range("motion_max_gap_frames", self.motion_max_gap_frames, 1)
-        check_range("motion_jitter_px", self.motion_jitter_px, 0.0)
-        check_range("max_motion_sigma_deg", self.max_motion_sigma_deg, 0.0)
-        check_range("min_speed_sigmas", self.min_speed_sigmas, 0.0)
-        check_range("min_fit_iou", self.min_fit_iou, 0.0, 1.0)
-        check_range("silhouette_search_mm step", self.silhouette_search_mm[2], 0.0, low_open=True)
-        check_range("silhouette_search_mm", self.silhouette_search_mm[0], None, self.silhouette_search_mm[1])
-
-    @classmethod
-    def from_config(cls, **overrides: object) -> PipelineParams:
-        """The settings of `conf/localize/pipeline/default.yaml`, with `overrides`."""
-        return params_from_config(cls, "localize/pipeline/default.yaml", overrides)
-
-
-@dataclass(frozen=True)
 class Estimate:
     """One method's localization: the box on the road, the key point it stands on (paper's method), its
     1-sigma uncertainty, the silhouette overlap reached and where it started (model fit: `FIT_STARTS`)."""
@@ -118,13 +87,17 @@ class Estimate:
 
 @dataclass(frozen=True)
 class VehicleRecord:
-    """What the pipeline says of one vehicle at one frame."""
+    """What the pipeline says of one vehicle at one frame: its status; when not localized, the code of why
+    (`reason_code`) and the sentence (`reason`); for a localized one, `notes` on how (where the fit started, a
+    heading from the path, a fit not reported)."""
 
     track_id: int
     frame: int
     box_px: Box
-    status: str
+    status: Status
+    reason_code: ReasonCode | None = None
     reason: str = ""
+    notes: str = ""
     model_id: int | None = None
     make: str = ""
     model: str = ""
@@ -138,7 +111,8 @@ class VehicleRecord:
     def rows(self) -> list[dict[str, object]]:
         """Flat table rows: one per estimate, or one saying why there is none."""
         base: dict[str, object] = {
-            "track_id": self.track_id, "frame": self.frame, "status": self.status, "reason": self.reason,
+            "track_id": self.track_id, "frame": self.frame, "status": self.status.value,
+            "reason_code": self.reason_code.value if self.reason_code else "", "reason": self.reason, "notes": self.notes,
             "box_x0_px": self.box_px.x0, "box_y0_px": self.box_px.y0, "box_x1_px": self.box_px.x1,
             "box_y1_px": self.box_px.y1, "model_id": self.model_id, "make": self.make, "model": self.model,
             "probability": self.probability,
@@ -166,22 +140,19 @@ class Localizer:
         self,
         classifier: VehicleClassifier,
         calibration: CameraCalibration,
-        params: PipelineParams | None = None,
-        roi: RoiParams | None = None,
-        tracker: TrackerParams | None = None,
-        detectors: DetectorParams | None = None,
-        fit: FitParams | None = None,
+        settings: LocalizeSettings | None = None,
         clock: StageClock | None = None,
     ) -> None:
         if calibration.camera is None:
             raise VehlocError(f"{calibration.source}: no pinhole camera can be recovered from this calibration")
         self.classifier = classifier
         self.calibration = calibration
-        self.params = params or PipelineParams.from_config()
-        self.extractor = VehicleRoiExtractor(roi)
-        self.tracker = StoppedVehicleTracker(self.params.vote_frames, tracker)
-        self.detectors = detectors or DetectorParams.from_config()
-        self.fit_params = fit or FitParams.from_config()
+        settings = settings or LocalizeSettings.compose()
+        self.params = settings.pipeline
+        self.extractor = VehicleRoiExtractor(settings.roi)
+        self.tracker = StoppedVehicleTracker(self.params.vote_frames, settings.tracker)
+        self.detectors = settings.detectors
+        self.fit_params = settings.fit
         self.clock = clock or StageClock()
 
     def process(self, frame_index: int, frame_bgr: np.ndarray) -> list[VehicleRecord]:
@@ -270,45 +241,47 @@ class Localizer:
         box = track.box
         height_px, width_px = frame_bgr.shape[:2]
         if box.touches_border(width_px, height_px, self.params.border_margin_px):
-            return VehicleRecord(track.track_id, frame_index, box, NOT_LOCALIZED, "the vehicle touches the frame's edge")
-        votes = track.votes
-        if votes.empty:
-            return VehicleRecord(track.track_id, frame_index, box, NOT_LOCALIZED,
-                                 f"its box ({box.width_px}x{box.height_px} px) was never big enough to classify "
-                                 f"(at least {MIN_SIDE_PX} px a side)")
+            return not_localized(track, frame_index, NotPlaced(ReasonCode.TOUCHES_EDGE,
+                                                               "the vehicle touches the frame's edge"))
+        if track.votes.empty:
+            return not_localized(track, frame_index, NotPlaced(
+                ReasonCode.TOO_SMALL_TO_CLASSIFY, f"its box ({box.width_px}x{box.height_px} px) was never big enough "
+                                                  f"to classify (at least {MIN_SIDE_PX} px a side)"))
         with self.clock.stage("classification"):
-            probabilities = votes.vote(self.classifier)
+            probabilities = track.votes.vote(self.classifier)
         top1 = self.classifier.predictions(probabilities[None], top_k=1)[0].top1
         spec = next(c for c in self.classifier.classes if c.model_id == top1.model_id)
-        record = VehicleRecord(track.track_id, frame_index, box, LOCALIZED, "", top1.model_id, top1.make, top1.model,
-                               top1.probability, tuple(float(v) for v in spec.dims_mm))
+        record = VehicleRecord(track.track_id, frame_index, box, Status.LOCALIZED, None, "", "", top1.model_id,
+                               top1.make, top1.model, top1.probability, tuple(float(v) for v in spec.dims_mm))
         roi = box.enlarged(self.params.detector_roi_fraction, width_px, height_px)
         travel = self.travel_heading_deg(track)
         moving = self.is_moving(track)
         path = self.motion_heading(track, frame_index) if moving else None
         unclear = unclear_path(path, self.params) if moving else None
-        motion = None if unclear else path
+        motion = None if unclear is not None else path
         if motion is not None:
-            record = replace(record, reason=f"heading from the track's path (sigma {motion.sigma_deg:.1f} deg)")
-        try:
-            with self.clock.stage("key points"):
-                silhouette = self.extractor.foreground(roi)
-                placement = paper_placement(roi.crop(frame_bgr), silhouette, roi, self.calibration, spec,
-                                            self.classifier.metadata.shape_of(spec.model_id), self.detectors,
-                                            self.visible_end(track))
-        except (NotLocalized, HorizonError) as why:
-            if unclear:
-                return replace(record, status=NOT_LOCALIZED, reason=joined(str(why), unclear))
+            record = replace(record, notes=f"heading from the track's path (sigma {motion.sigma_deg:.1f} deg)")
+        with self.clock.stage("key points"):
+            silhouette = self.extractor.foreground(roi)
+            placement = paper_placement(roi.crop(frame_bgr), silhouette, roi, self.calibration, spec,
+                                        self.classifier.metadata.shape_of(spec.model_id), self.detectors,
+                                        self.visible_end(track))
+        if isinstance(placement, NotPlaced):
+            if unclear is not None:
+                return replace(record, status=Status.NOT_LOCALIZED, reason_code=unclear.code,
+                               reason=joined(placement.message, unclear.message), notes="")
             kind, headings = self.fit_starts(track, silhouette.mask, roi, travel, motion)
             if not headings:
-                return replace(record, status=NOT_LOCALIZED, reason=str(why))
+                return replace(record, status=Status.NOT_LOCALIZED, reason_code=placement.code,
+                               reason=placement.message, notes="")
             with self.clock.stage("model fit"):
                 starts = [self._start_box(track, spec, heading, kind, silhouette.weights, roi) for heading in headings]
                 fit = self._fit(starts, silhouette.weights, roi, probabilities, travel, motion, kind)
             if fit.iou < self.params.min_fit_iou:
-                return replace(record, status=NOT_LOCALIZED, reason=joined(str(why), poor_fit(fit)))
-            return replace(record, reason=joined(f"fit from the {FIT_STARTS[fit.start]} ({why})", record.reason),
-                           estimates=(fit,))
+                return replace(record, status=Status.NOT_LOCALIZED, reason_code=ReasonCode.POOR_FIT,
+                               reason=joined(placement.message, poor_fit(fit)), notes="")
+            return replace(record, notes=joined(f"fit from the {FIT_STARTS[fit.start]} ({placement.message})",
+                                                record.notes), estimates=(fit,))
         paper_box = facing(placement.box, travel) if travel is not None else placement.box
         estimates = [Estimate("paper", paper_box, placement.kind, self._paper_uncertainty(paper_box, placement.kind,
                                                                                          probabilities, placement.baseline_mm))]
@@ -318,7 +291,7 @@ class Localizer:
             if fit.iou >= self.params.min_fit_iou:
                 estimates.append(fit)
             else:
-                record = replace(record, reason=joined(record.reason, poor_fit(fit)))
+                record = replace(record, notes=joined(record.notes, poor_fit(fit)))
         return replace(record, estimates=tuple(estimates))
 
     def _calibration_part(self, box: VehicleBox, baseline_mm: float) -> tuple[float, float]:
@@ -366,34 +339,32 @@ class Localizer:
         return Estimate("fit", box, None, uncertainty, first.iou, start_kind)
 
 
-def stage_params(values: Mapping[str, Any]) -> dict[str, object]:
-    """The settings of the stage groups of `conf/localize/` (`pipeline`, `roi`, `tracker`, `footprint`, `plate`,
-    `wheels`, `fit` of a composed config, as plain data), each checked, as `Localizer` keywords."""
-    detectors = DetectorParams.from_mapping({group: values[group] for group in ("footprint", "plate", "wheels")})
-    return {"params": build_params(PipelineParams, values["pipeline"], "pipeline"),
-            "roi": build_params(RoiParams, values["roi"], "roi"),
-            "tracker": build_params(TrackerParams, values["tracker"], "tracker"), "detectors": detectors,
-            "fit": build_params(FitParams, values["fit"], "fit")}
-
-
 def joined(*reasons: str) -> str:
     """The non-empty reasons of a record, in one line."""
     return "; ".join(filter(None, reasons))
 
 
-def unclear_path(path: PathHeading | None, params: PipelineParams) -> str | None:
+def unclear_path(path: PathHeading | None, params: PipelineParams) -> NotPlaced | None:
     """Why a moving vehicle's recent path cannot give its heading (too short, too irregular, or not telling which
     way it goes); None when it can."""
     if path is None:
-        return (f"it moves, but its path over the last {params.motion_window_frames} frames spans less than "
-                f"{params.min_travel_mm:.0f} mm (pipeline.min_travel_mm)")
+        return NotPlaced(ReasonCode.PATH_TOO_SHORT,
+                         f"it moves, but its path over the last {params.motion_window_frames} frames spans less than "
+                         f"{params.min_travel_mm:.0f} mm (pipeline.min_travel_mm)")
     if path.sigma_deg > params.max_motion_sigma_deg:
-        return (f"it moves, but its path's heading is uncertain (sigma {path.sigma_deg:.1f} deg > "
-                f"pipeline.max_motion_sigma_deg)")
+        return NotPlaced(ReasonCode.PATH_HEADING_UNCERTAIN,
+                         f"it moves, but its path's heading is uncertain (sigma {path.sigma_deg:.1f} deg > "
+                         f"pipeline.max_motion_sigma_deg)")
     if path.speed_sigmas < params.min_speed_sigmas:
-        return (f"it moves, but its path does not tell which way (its speed along it, {path.speed_sigmas:.1f} sigma, "
-                f"is below pipeline.min_speed_sigmas)")
+        return NotPlaced(ReasonCode.PATH_WAY_UNCLEAR,
+                         f"it moves, but its path does not tell which way (its speed along it, "
+                         f"{path.speed_sigmas:.1f} sigma, is below pipeline.min_speed_sigmas)")
     return None
+
+
+def not_localized(track: VehicleTrack, frame_index: int, why: NotPlaced) -> VehicleRecord:
+    """The record of a vehicle that is not localized before it is classified."""
+    return VehicleRecord(track.track_id, frame_index, track.box, Status.NOT_LOCALIZED, why.code, why.message)
 
 
 def poor_fit(fit: Estimate) -> str:

@@ -1,40 +1,73 @@
 """`vehloc-localize video=... calibration=... model=... [truth=...]`: localize the vehicles of a video and
 write the records (CSV + JSON), a picture of each localized vehicle, and the paper's Table 2 when the
-scene's ground truth is given."""
+scene's ground truth is given.
+
+Every setting is checked and the calibration, the model and the truth are read before the first frame; a bad
+override or setting is one line and exit code 1, as in the other CLIs."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
-import hydra
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig, OmegaConf
 
-from vehloc.config import config_dir
-from vehloc.errors import exit_on_error
-from vehloc.geometry.pipeline.localize import Localizer, stage_params
+from vehloc.atomic import check_output_dir
+from vehloc.config import ConfigError, build_params, check_range, config_dir
+from vehloc.errors import exit_on_error, hydra_main
 from vehloc.geometry.camera_calibration import read_calibration
-from vehloc.geometry.truth import read_scene_truth
+from vehloc.geometry.pipeline.localize import Localizer
+from vehloc.geometry.pipeline.settings import LocalizeSettings
 from vehloc.geometry.pipeline.video_localization import localize_video
+from vehloc.geometry.truth import read_scene_truth
 from vehloc.infer.classifier import VehicleClassifier
 
+REQUIRED = {"video": "the video to localize", "calibration": "calibration.json of vehloc-calibrate for its camera",
+            "model": "an ONNX classifier written by vehloc-export"}
 
-@hydra.main(version_base="1.3", config_path=str(config_dir() / "localize"), config_name="localize")
+
+@dataclass(frozen=True)
+class LocalizeParams:
+    """The top-level settings of `conf/localize.yaml`."""
+
+    video: str
+    calibration: str
+    model: str
+    truth: str | None
+    max_frames: int | None
+    annotate: bool
+
+    def __post_init__(self) -> None:
+        if self.max_frames is not None:
+            check_range("max_frames", self.max_frames, 1)
+
+
 @exit_on_error("vehloc-localize")
-def main(cfg: DictConfig) -> None:
-    out_dir = Path(HydraConfig.get().runtime.output_dir)
-    stages = stage_params(OmegaConf.to_container(cfg, resolve=True))
-    calibration = read_calibration(cfg.calibration)
-    localizer = Localizer(VehicleClassifier.from_onnx(cfg.model), calibration, **stages)
-    truth = read_scene_truth(cfg.truth) if cfg.truth else None
-    run = localize_video(localizer, cfg.video, out_dir, truth, cfg.max_frames, cfg.annotate)
+def _run(cfg: DictConfig) -> None:
+    for key, what in REQUIRED.items():
+        if OmegaConf.is_missing(cfg, key):
+            raise ConfigError(f"{key}=PATH is required: {what}")
+    values = OmegaConf.to_container(cfg, resolve=True)
+    params = build_params(LocalizeParams, {key: values[key] for key in LocalizeParams.__dataclass_fields__}, "")
+    settings = LocalizeSettings.from_mapping(values)
+    out_dir = check_output_dir(Path(HydraConfig.get().runtime.output_dir), "run folder")
+    calibration = read_calibration(params.calibration)
+    localizer = Localizer(VehicleClassifier.from_onnx(params.model), calibration, settings)
+    truth = read_scene_truth(params.truth) if params.truth else None
+    run = localize_video(localizer, params.video, out_dir, truth, params.max_frames, params.annotate)
     if not run.records:
         every = localizer.params.every_frame
-        print(f"no vehicle {'in view' if every else 'stopped'} in {cfg.video}: empty records in {out_dir}")
+        print(f"no vehicle {'in view' if every else 'stopped'} in {params.video}: empty records in {out_dir}")
     else:
         print(f"{len(run.records)} record(s), {run.localized} localized: {out_dir / 'records.csv'}")
     if truth is not None:
-        print(f"Table 2 against {cfg.truth}: {out_dir / 'table2.md'}")
+        print(f"Table 2 against {params.truth}: {out_dir / 'table2.md'}")
+
+
+@hydra_main("vehloc-localize", str(config_dir() / "localize"), "localize")
+def main(cfg: DictConfig) -> None:
+    _run(cfg)
 
 
 if __name__ == "__main__":

@@ -15,7 +15,7 @@ from tqdm import tqdm
 from vehloc.atomic import write_image, write_text
 from vehloc.geometry.pipeline.drawing import METHOD_COLOURS_BGR, draw_cuboid, write_birds_eye
 from vehloc.geometry.pipeline.evaluation import table2_rows, write_case_figures, write_table2
-from vehloc.geometry.pipeline.localize import LOCALIZED, Localizer, VehicleRecord
+from vehloc.geometry.pipeline.localize import Localizer, Status, VehicleRecord
 from vehloc.geometry.truth import SceneTruth
 from vehloc.geometry.pipeline.video import iter_frames, video_info
 
@@ -31,7 +31,7 @@ class VideoLocalization:
 
     @property
     def localized(self) -> int:
-        return sum(r.status == LOCALIZED for r in self.records)
+        return sum(r.status == Status.LOCALIZED for r in self.records)
 
 
 def records_json(records: list[VehicleRecord]) -> str:
@@ -68,7 +68,7 @@ def localize_video(localizer: Localizer, video: str | Path, out_dir: Path, truth
         frames += 1
         for record in localizer.process(frame_index, frame):
             records.append(record)
-            if pictures and record.status == LOCALIZED:
+            if pictures and record.status == Status.LOCALIZED:
                 annotate(frame, record, localizer, out_dir)
     rows = [row for record in records for row in record.rows()]
     write_text(out_dir / "records.csv", pd.DataFrame(rows).to_csv(index=False, float_format="%.2f"))

@@ -1,0 +1,67 @@
+"""One settings path for the localization: `conf/localize/localize.yaml` composed as `vehloc-localize` composes it
+gives the library's defaults, a site's experiment (`experiment=highway`) changes exactly its settings, and a bad
+override or setting is one line and exit code 1 from the CLI, before any file is read."""
+
+from __future__ import annotations
+
+
+import pytest
+from bad_input import assert_one_error, side_by_side
+
+from vehloc.config import ConfigError
+from vehloc.geometry.keypoints import DetectorParams
+from vehloc.geometry.model_fit import FitParams
+from vehloc.geometry.pipeline.settings import LocalizeSettings, PipelineParams
+from vehloc.geometry.pipeline.tracker import TrackerParams
+from vehloc.geometry.roi import RoiParams
+
+
+def test_the_composed_defaults_are_each_groups_defaults() -> None:
+    assert LocalizeSettings.compose() == LocalizeSettings(PipelineParams.from_config(), RoiParams.from_config(),
+                                                          TrackerParams.from_config(), DetectorParams.from_config(),
+                                                          FitParams.from_config())
+
+
+def test_the_highway_experiment_sets_its_settings_and_no_other() -> None:
+    default, highway = LocalizeSettings.compose(), LocalizeSettings.compose(["experiment=highway"])
+    assert highway.pipeline == PipelineParams.from_config(every_frame=True, fit_from_travel=True)
+    assert highway.roi == RoiParams.from_config(scale=1.0, close_kernel_px=5, min_area_fraction=0.002)
+    assert (highway.tracker, highway.detectors, highway.fit) == (default.tracker, default.detectors, default.fit)
+    assert default.pipeline.every_frame is False and default.roi.min_area_fraction == 0.001
+
+
+@pytest.mark.parametrize(("overrides", "fragment"), [
+    (["roi.nope=1"], "roi.nope"),
+    (["experiment=nope"], "experiment/nope"),
+    (["pipeline.min_fit_iou=abc"], "pipeline.min_fit_iou"),
+    (["tracker.max_lost_frames=0"], "tracker.max_lost_frames"),
+])
+def test_a_bad_override_of_the_library_is_a_config_error(overrides: list[str], fragment: str) -> None:
+    with pytest.raises(ConfigError, match=fragment.replace(".", r"\.")) as caught:
+        LocalizeSettings.compose(overrides)
+    assert "\n" not in str(caught.value)
+
+
+CLI_CASES = {
+    "not_a_number": (["pipeline.min_fit_iou=abc"], "pipeline.min_fit_iou"),
+    "unknown_key": (["roi.nope=1"], "roi.nope"),
+    "no_frames": (["max_frames=0"], "max_frames"),
+    "never_lost": (["tracker.max_lost_frames=0"], "tracker.max_lost_frames"),
+    "unknown_experiment": (["experiment=nope"], "experiment/nope"),
+    "no_video": (["calibration=c.json", "model=m.onnx"], "video=PATH is required"),
+}
+
+
+@pytest.fixture(scope="module")
+def cli_results(tmp_path_factory: pytest.TempPathFactory) -> dict:
+    folder = tmp_path_factory.mktemp("localize_settings")
+    base = ["video=missing.avi", "calibration=missing.json", "model=missing.onnx", f"hydra.run.dir={folder / 'run'}"]
+    runs = {name: ("vehloc-localize", (base if name != "no_video" else base[3:]) + overrides, folder)
+            for name, (overrides, _) in CLI_CASES.items()}
+    with side_by_side(runs) as futures:
+        return {name: future.result() for name, future in futures.items()}
+
+
+@pytest.mark.parametrize("case", sorted(CLI_CASES))
+def test_a_bad_override_of_the_cli_is_one_line(case: str, cli_results: dict) -> None:
+    assert_one_error(cli_results[case], "vehloc-localize", CLI_CASES[case][1])
