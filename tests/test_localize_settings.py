@@ -4,6 +4,9 @@ override or setting is one line and exit code 1 from the CLI, before any file is
 
 from __future__ import annotations
 
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 from bad_input import assert_one_error, side_by_side
@@ -65,3 +68,25 @@ def cli_results(tmp_path_factory: pytest.TempPathFactory) -> dict:
 @pytest.mark.parametrize("case", sorted(CLI_CASES))
 def test_a_bad_override_of_the_cli_is_one_line(case: str, cli_results: dict) -> None:
     assert_one_error(cli_results[case], "vehloc-localize", CLI_CASES[case][1])
+
+
+def test_the_settings_compose_inside_a_hydra_app(tmp_path: Path) -> None:
+    """Within a running Hydra app (as `vehloc-demo` localizes its Table 2 scenes), composing the localization's
+    settings leaves the app's Hydra as it was."""
+    app = tmp_path / "app.py"
+    app.write_text(
+        "import hydra\n"
+        "from hydra.core.global_hydra import GlobalHydra\n"
+        "from hydra.core.hydra_config import HydraConfig\n"
+        "from vehloc.geometry.pipeline.settings import LocalizeSettings\n"
+        "@hydra.main(version_base='1.3', config_path=None)\n"
+        "def main(cfg):\n"
+        "    before = HydraConfig.get().runtime.output_dir\n"
+        "    settings = LocalizeSettings.compose(['experiment=highway'])\n"
+        "    assert GlobalHydra.instance().is_initialized() and HydraConfig.get().runtime.output_dir == before\n"
+        "    print(settings.roi.min_area_fraction)\n"
+        "main()\n")
+    run = subprocess.run([sys.executable, str(app), f"hydra.run.dir={tmp_path / 'run'}"], capture_output=True,
+                         text=True, timeout=120)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert run.stdout.strip() == "0.002"

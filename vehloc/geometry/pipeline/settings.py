@@ -85,16 +85,22 @@ class LocalizeSettings:
         """`conf/localize/localize.yaml` with Hydra overrides (`["experiment=highway", "roi.scale=1"]`), as
         `vehloc-localize` composes it; ConfigError in one line for a bad override."""
         from hydra import compose, initialize_config_dir
+        from hydra.core.global_hydra import GlobalHydra
         from hydra.errors import HydraException
+        from hydra.initialize import get_gh_backup, restore_gh_from_backup
         from omegaconf import OmegaConf
         from omegaconf.errors import OmegaConfBaseException
 
         from vehloc.errors import hydra_error_line
 
+        outer = get_gh_backup()  # inside a Hydra app (vehloc-demo), its Hydra is set aside and given back after
+        GlobalHydra.instance().clear()
         try:
             with initialize_config_dir(str(config_dir() / "localize"), version_base="1.3"):
                 cfg = compose("localize", overrides=list(overrides))
             values = {group: OmegaConf.to_container(cfg[group], resolve=True) for group in STAGE_GROUPS}
         except (HydraException, OmegaConfBaseException) as err:
             raise ConfigError(f"localize settings {list(overrides)}: {hydra_error_line(err)}") from None
+        finally:
+            restore_gh_from_backup(outer)
         return cls.from_mapping(values)
