@@ -24,6 +24,7 @@ import pandas as pd
 import torch
 from torch.utils.data import DataLoader, Dataset
 
+from vehloc.train.params import check_train_config
 from vehloc.train.instantiate import compose_config, instantiate_data_and_model
 from vehloc.train.module import LitVehicleClassifier
 from vehloc.tables import markdown_table
@@ -120,7 +121,7 @@ def main(argv: list[str] | None = None) -> int:
 
     cfg = compose_config("train", ["experiment=demo", *args.overrides], args.out)
     torch.manual_seed(0)
-    datamodule, model = instantiate_data_and_model(cfg)
+    datamodule, model = instantiate_data_and_model(*check_train_config(cfg))
     datamodule.setup("fit")
     loader_rate, batches = loader_images_per_s(datamodule.train_dataloader(), args.warmup + args.batches)
     served = DataLoader(BatchList(batches), batch_size=None, shuffle=False)

@@ -61,3 +61,4 @@ def test_the_tracker_holds_only_the_tracks_in_view() -> None:
         held.append(len(t.tracks))
     assert max(held) <= 3
     assert removed == 998 and [track.track_id for track in t.tracks] == [999, 1000]  # the last two still in view
+    assert t.started == 1000

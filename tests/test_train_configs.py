@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import hydra
@@ -16,6 +17,7 @@ from vehloc.train.instantiate import (
     instantiate_loggers,
     instantiate_trainer,
 )
+from vehloc.train.params import check_train_config
 
 PROJECT_ROOT = Path(__file__).resolve().parents[1]
 EXPERIMENTS = sorted(p.stem for p in (config_dir() / "experiment").glob("*.yaml"))
@@ -36,7 +38,7 @@ def test_experiment_composes_and_instantiates(experiment: str, tiny_root: Path, 
     if experiment == "paper_googlenet_compcars431":
         overrides.append("model.backbone.pretrained=none")  # the ImageNet file is not in this cache
     cfg = compose_config("train", overrides, tmp_path)
-    datamodule, model = instantiate_data_and_model(cfg)
+    datamodule, model = instantiate_data_and_model(*check_train_config(cfg))
     trainer = instantiate_trainer(cfg, instantiate_callbacks(cfg.callbacks), instantiate_loggers(cfg.logger))
     assert isinstance(trainer, L.Trainer)
     assert model.num_classes == datamodule.dataset.num_classes
@@ -83,3 +85,16 @@ def test_eval_config_composes_with_a_checkpoint(tmp_path: Path):
 def test_experiments_compose_for_evaluation(experiment: str, tmp_path: Path):
     cfg = compose_config("eval", [f"experiment={experiment}", "ckpt_path=run/last.ckpt", "data.root=/data"], tmp_path)
     assert cfg.data.root == "/data" and cfg.callbacks.table1.out_dir == f"{tmp_path.resolve()}/table1"
+
+
+def test_the_objects_are_built_from_the_checked_settings(tiny_root: Path, tmp_path: Path):
+    """The datamodule and the classifier are built from the checked dataclasses, not again from the config: a value
+    changed in the dataclass is the one the objects hold, and the hyper-parameters are plain values."""
+    cfg = compose_config("train", ["experiment=demo", f"data.root={tiny_root}"], tmp_path)
+    data, model_params = check_train_config(cfg)
+    data = dataclasses.replace(data, batch_size=3)
+    model_params = dataclasses.replace(model_params, label_smoothing=0.05)
+    datamodule, model = instantiate_data_and_model(data, model_params)
+    assert cfg.data.batch_size != 3 and datamodule.hparams.batch_size == 3
+    assert model.hparams.label_smoothing == 0.05 and isinstance(model.hparams.backbone, dict)
+    assert isinstance(datamodule.hparams.augment, dict)

@@ -232,7 +232,7 @@ def test_a_moving_vehicle_whose_path_does_not_tell_its_heading_is_not_localized(
     records, localizer = records_of_a_far_car(
         bottoms_px, PipelineParams.from_config(every_frame=True, max_motion_sigma_deg=max_sigma_deg), tmp_path)
     assert [r.status for r in records] == [Status.NOT_LOCALIZED, Status.NOT_LOCALIZED]
-    path = localizer.motion_heading(localizer.tracker.tracks[0], 1)
+    path = localizer.travel(localizer.tracker.tracks[0], 1).recent
     assert path.sigma_deg > 2.0 and path.points == 2
     assert (records[1].reason_code == ReasonCode.PATH_HEADING_UNCERTAIN) is unclear
 
@@ -248,6 +248,6 @@ def test_a_moving_vehicle_whose_path_does_not_tell_which_way_is_not_localized(
     params = PipelineParams.from_config(every_frame=True, max_motion_sigma_deg=90.0, min_speed_sigmas=min_speed_sigmas)
     records, localizer = records_of_a_far_car(bottoms_px, params, tmp_path)
     assert all(r.status == Status.NOT_LOCALIZED for r in records)
-    path = localizer.motion_heading(localizer.tracker.tracks[0], 5)
+    path = localizer.travel(localizer.tracker.tracks[0], 5).recent
     assert path.speed_sigmas < 3.0 and path.sigma_deg < 90.0
     assert records[-1].reason_code == (ReasonCode.PATH_WAY_UNCLEAR if unclear else ReasonCode.NO_FOOTPRINT_LINES)

@@ -60,10 +60,12 @@ def run(localizer: Localizer, passes: int, every: int) -> pd.DataFrame:
             frame_index += 1
             if frame_index % every == 0:
                 rows.append({"pass": pass_number, "frame": frame_index, "rss_mib": resident_mib(),
-                             "tracks_held": len(localizer.tracker.tracks), "records": records, "end_of_pass": False})
+                             "tracks_held": len(localizer.tracker.tracks), "tracks_started": localizer.tracker.started,
+                             "records": records, "end_of_pass": False})
         gc.collect()
         rows.append({"pass": pass_number, "frame": frame_index, "rss_mib": resident_mib(),
-                     "tracks_held": len(localizer.tracker.tracks), "records": records, "end_of_pass": True})
+                     "tracks_held": len(localizer.tracker.tracks), "tracks_started": localizer.tracker.started,
+                     "records": records, "end_of_pass": True})
         print(f"pass {pass_number}: {frame_index} frames, {records} records, {len(localizer.tracker.tracks)} tracks "
               f"held, {rows[-1]['rss_mib']:.1f} MiB resident ({time.perf_counter() - start:.0f} s)", flush=True)
     return pd.DataFrame(rows)
@@ -107,7 +109,8 @@ def main() -> None:
     cpu = cpu_info()
     lines = [f"# The localization's memory over the highway clip, {args.passes} passes", "",
              f"CPU: {cpu.describe()}; model {args.model.name}; the clip's settings `{EXPERIMENT}`.", "",
-             markdown_table(ends[["pass", "frame", "records", "tracks_held", "rss_mib", "growth_since_first_pct"]],
+             markdown_table(ends[["pass", "frame", "records", "tracks_started", "tracks_held", "rss_mib",
+                                   "growth_since_first_pct"]],
                             "{:.1f}"), "",
              f"Most tracks held at once: {int(samples['tracks_held'].max())}. After the last pass the resident memory "
              f"is {growth:+.1f} % of that after the first (at most {100 * MAX_GROWTH:.0f} %): "

@@ -95,12 +95,7 @@ def main() -> None:
     table = checks(records, left_curb_x_mm)
     write_text(args.out / "checks.csv", table.to_csv(index=False))
     shown = overlay(list(run.records), localizer, args.out / "overlay.png")
-    # one line per reason: the fit's overlap and the path's sigmas, which vary per record, are left out of the grouping
-    reasons = (records[records.status != Status.LOCALIZED].reason
-               .str.replace(r"overlap [0-9.]+ <", "overlap <", regex=True)
-               .str.replace(r"sigma [0-9.]+ deg >", "sigma >", regex=True)
-               .str.replace(r"its speed along it, [0-9.]+ sigma, is below", "its speed along it is below", regex=True)
-               .value_counts())
+    reasons = records[records.status != Status.LOCALIZED].groupby("reason_code")["reason"].agg(["size", "first"])
     lines = [
         "# Real video: every car localized frame by frame",
         "",
@@ -110,9 +105,9 @@ def main() -> None:
         "",
         markdown_table(table) if len(table) else "No record was localized.",
         "",
-        "Records not localized, by reason:",
+        "Records not localized, by reason code (with one record's reason):",
         "",
-        *(f"- {count} x {reason}" for reason, count in reasons.items()),
+        *(f"- {row['size']} x `{code}` ({row['first']})" for code, row in reasons.sort_values("size", ascending=False).iterrows()),
         "",
         f"![overlay](overlay.png) frames {', '.join(map(str, shown))}: paper's method green, model fit blue.",
     ]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from collections import Counter
 from collections.abc import Sequence
 from functools import cached_property
@@ -18,6 +19,7 @@ from vehloc.data.preprocess import Preprocessing
 from vehloc.data.specs import SpecsTable
 from vehloc.train.classes import class_info, read_dataset, read_specs
 from vehloc.train.dataset import CompCarsCrops
+from vehloc.train.params import DataParams
 from vehloc.train.transforms import EvalTransform, TrainTransform
 
 
@@ -78,6 +80,12 @@ class CompCarsDataModule(L.LightningDataModule):
         self.train_set: CompCarsCrops | None = None
         self.val_set: CompCarsCrops | None = None
         self.test_set: CompCarsCrops | None = None
+
+    @classmethod
+    def from_params(cls, data: DataParams) -> CompCarsDataModule:
+        """The datamodule of checked settings (`vehloc.train.params.check_data`): the one way the entry points
+        build it."""
+        return cls(**dataclasses.asdict(data))
 
     @cached_property
     def dataset(self) -> CompCarsSet:

@@ -7,6 +7,7 @@ numbered the same way would give a plausible but meaningless Table 1."""
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Any
 
@@ -34,8 +35,8 @@ def evaluate(cfg: DictConfig) -> tuple[dict[str, float], dict[str, Any]]:
     check_classes(checkpoint, classes["class_model_ids"], cfg.ckpt_path, classes["class_makes"],
                   classes["class_models"], f"data.root {data.root}")
 
+    from vehloc.train.datamodule import CompCarsDataModule
     from vehloc.train.instantiate import (
-        instantiate,
         instantiate_callbacks,
         instantiate_loggers,
         instantiate_trainer,
@@ -45,8 +46,8 @@ def evaluate(cfg: DictConfig) -> tuple[dict[str, float], dict[str, Any]]:
 
     # the report opens with a warning when the checkpoint's own run chose it on this test split
     on_test = chosen_on_test_split(checkpoint)
-    datamodule = instantiate(cfg.data, "data", _convert_="all", select_on_test=on_test,
-                             val_fraction=0.0 if on_test else cfg.data.val_fraction)
+    datamodule = CompCarsDataModule.from_params(
+        dataclasses.replace(data, select_on_test=on_test, val_fraction=0.0 if on_test else data.val_fraction))
     datamodule.use_data(dataset, specs)
     datamodule.use_preprocessing(preprocessing)
     model = load_classifier(checkpoint, cfg.ckpt_path, **{k: v for k, v in classes.items() if k != "class_model_ids"})

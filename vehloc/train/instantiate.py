@@ -23,6 +23,7 @@ from vehloc.errors import VehlocError
 from vehloc.hardware import cpu_info
 from vehloc.train.datamodule import CompCarsDataModule
 from vehloc.train.module import LitVehicleClassifier
+from vehloc.train.params import DataParams, ModelParams
 from vehloc.train.precision import PrecisionChoice, resolve_precision
 
 
@@ -84,13 +85,12 @@ def instantiate_loggers(cfg: DictConfig | None) -> list[Logger]:
     return _instantiate_group(cfg, "logger")
 
 
-def instantiate_data_and_model(cfg: DictConfig) -> tuple[CompCarsDataModule, LitVehicleClassifier]:
-    """The datamodule (data set and specs validated) and a model built for its classes; validation and test
-    images go through the model's preprocessing."""
-    if OmegaConf.is_missing(cfg.data, "root") or cfg.data.root is None:
-        raise VehlocError("data.root=PATH is required: a CompCars-format data set")
-    datamodule: CompCarsDataModule = instantiate(cfg.data, "data", _convert_="all")
-    model: LitVehicleClassifier = instantiate(cfg.model, "model", **datamodule.class_info(), _convert_="all")
+def instantiate_data_and_model(data: DataParams, model_params: ModelParams) -> tuple[CompCarsDataModule,
+                                                                                   LitVehicleClassifier]:
+    """The datamodule (data set and specs validated) and a model built for its classes, from the checked settings
+    (`check_train_config`); validation and test images go through the model's preprocessing."""
+    datamodule = CompCarsDataModule.from_params(data)
+    model = LitVehicleClassifier.from_params(model_params, **datamodule.class_info())
     datamodule.use_preprocessing(model.preprocessing)
     return datamodule, model
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +24,7 @@ from vehloc.train.checkpoints import (  # noqa: F401 - re-exported: the checkpoi
     read_checkpoint,
 )
 from vehloc.train.metrics import split_metrics
+from vehloc.train.params import ModelParams
 from vehloc.train.schedules import build_optimizer, build_schedule, freeze_lowest_blocks, param_groups
 
 
@@ -85,6 +87,13 @@ class LitVehicleClassifier(L.LightningModule):
         self.val_metrics = split_metrics(num_classes, class_dims_mm, "val/", expected_top_k)
         self.test_metrics = split_metrics(num_classes, class_dims_mm, "test/", expected_top_k)
         self.val_acc_best = MaxMetric()
+
+    @classmethod
+    def from_params(cls, model: ModelParams, **class_info: Any) -> LitVehicleClassifier:
+        """The classifier of checked settings (`vehloc.train.params.ModelParams`) for the classes of `class_info`
+        (`CompCarsDataModule.class_info`): the one way the entry points build it. Its hyper-parameters are the
+        settings as plain values, so that a checkpoint loads with `weights_only=True`."""
+        return cls(**class_info, **dataclasses.asdict(model))
 
     @property
     def preprocessing(self) -> Preprocessing:

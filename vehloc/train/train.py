@@ -20,7 +20,7 @@ def train(cfg: DictConfig) -> tuple[dict[str, float], dict[str, Any]]:
     """Fit (optionally resuming from `ckpt_path`) and test with the best checkpoint; return the metrics and
     the objects of the run. The settings are checked first; a checkpoint to resume from must be of the data's
     classes (model ids and names)."""
-    check_train_config(cfg)
+    data, model_params = check_train_config(cfg)
     import lightning as L
     from lightning.pytorch.utilities import rank_zero_info
 
@@ -37,7 +37,7 @@ def train(cfg: DictConfig) -> tuple[dict[str, float], dict[str, Any]]:
     if cfg.get("seed") is not None:
         L.seed_everything(cfg.seed, workers=True, verbose=False)
     checkpoint = read_checkpoint(cfg.ckpt_path) if cfg.get("ckpt_path") else None
-    datamodule, model = instantiate_data_and_model(cfg)
+    datamodule, model = instantiate_data_and_model(data, model_params)
     if checkpoint is not None:
         hp = model.hparams
         check_classes(checkpoint, hp.class_model_ids, cfg.ckpt_path, hp.class_makes, hp.class_models,

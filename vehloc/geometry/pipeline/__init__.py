@@ -18,6 +18,7 @@ from vehloc.geometry.pipeline.site_calibration import SiteCalibration, calibrate
 from vehloc.geometry.pipeline.table2 import PoseError, pose_error
 from vehloc.geometry.pipeline.timing import StageClock
 from vehloc.geometry.pipeline.tracker import StoppedVehicleTracker, TrackerParams, TrackerUpdate, TrackState, VehicleTrack
+from vehloc.geometry.pipeline.travel import Travel, track_travel
 from vehloc.geometry.pipeline.video import MediaError, VideoInfo, iter_frames, read_still, video_info
 from vehloc.geometry.pipeline.video_localization import VideoLocalization, localize_video
 from vehloc.geometry.pipeline.votes import TrackVotes
@@ -25,7 +26,7 @@ from vehloc.geometry.pipeline.votes import TrackVotes
 __all__ = [
     "Estimate", "LocalizeSettings", "Localizer", "MediaError", "PipelineParams", "PoseError",
     "SiteCalibration", "StageClock", "Status", "StoppedVehicleTracker", "TrackState", "TrackVotes", "TrackerParams",
-    "TrackerUpdate", "VehicleRecord", "VehicleTrack", "VideoInfo", "VideoLocalization", "calibrate_site",
-    "iter_frames", "localize_frames", "localize_video", "pose_error", "read_still", "table2_rows",
+    "TrackerUpdate", "Travel", "VehicleRecord", "VehicleTrack", "VideoInfo", "VideoLocalization", "calibrate_site",
+    "iter_frames", "localize_frames", "localize_video", "pose_error", "read_still", "table2_rows", "track_travel",
     "video_info", "write_calibration_files", "write_table2",
 ]

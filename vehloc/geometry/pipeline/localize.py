@@ -26,7 +26,7 @@ from vehloc.data.specs import VehicleSpec
 from vehloc.errors import VehlocError
 from vehloc.geometry.keypoints import paper_placement
 from vehloc.geometry.model_fit import best_start, fit_model
-from vehloc.geometry.motion import PathHeading, path_heading, recent_path
+from vehloc.geometry.motion import PathHeading
 from vehloc.geometry.placement import VehicleBox, direction_of, facing, heading_of
 from vehloc.geometry.outcome import NotPlaced, ReasonCode
 from vehloc.geometry.roi import VehicleRoiExtractor
@@ -35,6 +35,7 @@ from vehloc.geometry.camera_calibration import CameraCalibration
 from vehloc.geometry.pipeline.timing import StageClock
 from vehloc.geometry.pipeline.settings import LocalizeSettings, PipelineParams
 from vehloc.geometry.pipeline.tracker import StoppedVehicleTracker, VehicleTrack
+from vehloc.geometry.pipeline.travel import Travel, track_travel
 from vehloc.geometry.uncertainty import (
     Uncertainty,
     calibration_part,
@@ -172,37 +173,14 @@ class Localizer:
         due = update.seen if self.params.every_frame else update.stopped
         return [self.localize(track, frame_index, frame_bgr) for track in due]
 
-    def travel_heading_deg(self, track: VehicleTrack) -> float | None:
-        """The road direction the track's box bottom moved in, when it moved far enough to tell."""
-        points = [p for p in track.ground_points_mm if np.all(np.isfinite(p))]
-        if len(points) < 2 or np.linalg.norm(points[-1] - points[0]) < self.params.min_travel_mm:
-            return None
-        return heading_of(points[-1] - points[0])
+    def travel(self, track: VehicleTrack, frame_index: int) -> Travel:
+        """The track's travel at this frame (`track_travel`): moving when `heading_from_motion` is on and the tracker
+        does not find it still."""
+        moving = self.params.heading_from_motion and not self.tracker.is_still(track)
+        return track_travel(track, frame_index, moving, self.params, self.calibration.road_to_image,
+                      self.calibration.camera.centre_mm[:2])
 
-    def is_moving(self, track: VehicleTrack) -> bool:
-        """With `heading_from_motion`, whether the vehicle moves (is not still to the tracker): its heading is
-        then its path's."""
-        return self.params.heading_from_motion and not self.tracker.is_still(track)
-
-    def motion_heading(self, track: VehicleTrack, frame_index: int) -> PathHeading | None:
-        """The heading of the track's box bottom's road path over the last `motion_window_frames` frames (since
-        its last gap of more than `motion_max_gap_frames`), with its 1-sigma; None when it spans less than
-        `min_travel_mm`."""
-        points, frames = recent_path(track.ground_points_mm, track.ground_frames, frame_index,
-                                     self.params.motion_window_frames, self.params.motion_max_gap_frames)
-        return path_heading(points, frames, self.params.min_travel_mm, self.calibration.road_to_image,
-                            self.params.motion_jitter_px)
-
-    def visible_end(self, track: VehicleTrack) -> str | None:
-        """`front` when the vehicle came towards the camera, `rear` when it went away, None when it did not
-        move far enough to tell."""
-        points = [p for p in track.ground_points_mm if np.all(np.isfinite(p))]
-        if len(points) < 2 or np.linalg.norm(points[-1] - points[0]) < self.params.min_travel_mm:
-            return None
-        foot = self.calibration.camera.centre_mm[:2]
-        return "front" if np.linalg.norm(points[-1] - foot) < np.linalg.norm(points[0] - foot) else "rear"
-
-    def fit_starts(self, track: VehicleTrack, mask: np.ndarray, roi: Box, travel: float | None,
+    def fit_starts(self, track: VehicleTrack, mask: np.ndarray, roi: Box, came_deg: float | None,
                    motion: PathHeading | None) -> tuple[str, list[float]]:
         """Where the model fit starts when no key points are found (`FIT_STARTS`) and the headings it starts from:
         a moving vehicle from its path's heading and a stopped one from its travel's (`fit_from_travel`, when it
@@ -212,8 +190,8 @@ class Localizer:
         nearest_mm = track.ground_points_mm
         if not (self.params.fit and nearest_mm and np.all(np.isfinite(nearest_mm[-1]))):
             return "", []
-        if self.params.fit_from_travel and travel is not None:
-            return "travel", [travel if motion is None else motion.heading_deg]
+        if self.params.fit_from_travel and came_deg is not None:
+            return "travel", [came_deg if motion is None else motion.heading_deg]
         if not (self.params.fit_from_silhouette and motion is None):
             return "", []
         offset = np.array([roi.x0, roi.y0], dtype=float)
@@ -254,40 +232,37 @@ class Localizer:
         record = VehicleRecord(track.track_id, frame_index, box, Status.LOCALIZED, None, "", "", top1.model_id,
                                top1.make, top1.model, top1.probability, tuple(float(v) for v in spec.dims_mm))
         roi = box.enlarged(self.params.detector_roi_fraction, width_px, height_px)
-        travel = self.travel_heading_deg(track)
-        moving = self.is_moving(track)
-        path = self.motion_heading(track, frame_index) if moving else None
-        unclear = unclear_path(path, self.params) if moving else None
-        motion = None if unclear is not None else path
+        went = self.travel(track, frame_index)
+        came, motion, unclear = went.came_heading_deg, went.motion, went.unclear
         if motion is not None:
             record = replace(record, notes=f"heading from the track's path (sigma {motion.sigma_deg:.1f} deg)")
         with self.clock.stage("key points"):
             silhouette = self.extractor.foreground(roi)
             placement = paper_placement(roi.crop(frame_bgr), silhouette, roi, self.calibration, spec,
                                         self.classifier.metadata.shape_of(spec.model_id), self.detectors,
-                                        self.visible_end(track))
+                                        went.visible_end)
         if isinstance(placement, NotPlaced):
             if unclear is not None:
                 return replace(record, status=Status.NOT_LOCALIZED, reason_code=unclear.code,
                                reason=joined(placement.message, unclear.message), notes="")
-            kind, headings = self.fit_starts(track, silhouette.mask, roi, travel, motion)
+            kind, headings = self.fit_starts(track, silhouette.mask, roi, came, motion)
             if not headings:
                 return replace(record, status=Status.NOT_LOCALIZED, reason_code=placement.code,
                                reason=placement.message, notes="")
             with self.clock.stage("model fit"):
                 starts = [self._start_box(track, spec, heading, kind, silhouette.weights, roi) for heading in headings]
-                fit = self._fit(starts, silhouette.weights, roi, probabilities, travel, motion, kind)
+                fit = self._fit(starts, silhouette.weights, roi, probabilities, came, motion, kind)
             if fit.iou < self.params.min_fit_iou:
                 return replace(record, status=Status.NOT_LOCALIZED, reason_code=ReasonCode.POOR_FIT,
                                reason=joined(placement.message, poor_fit(fit)), notes="")
             return replace(record, notes=joined(f"fit from the {FIT_STARTS[fit.start]} ({placement.message})",
                                                 record.notes), estimates=(fit,))
-        paper_box = facing(placement.box, travel) if travel is not None else placement.box
+        paper_box = facing(placement.box, came) if came is not None else placement.box
         estimates = [Estimate("paper", paper_box, placement.kind, self._paper_uncertainty(paper_box, placement.kind,
                                                                                          probabilities, placement.baseline_mm))]
         if self.params.fit:
             with self.clock.stage("model fit"):
-                fit = self._fit([paper_box], silhouette.weights, roi, probabilities, travel, motion)
+                fit = self._fit([paper_box], silhouette.weights, roi, probabilities, came, motion)
             if fit.iou >= self.params.min_fit_iou:
                 estimates.append(fit)
             else:
@@ -303,7 +278,7 @@ class Localizer:
         return Uncertainty.combined(paper_dimension_part(kind, spread), self._calibration_part(box, baseline_mm))
 
     def _fit(self, starts: list[VehicleBox], weights: np.ndarray, roi: Box, probabilities: np.ndarray,
-             travel: float | None, motion: PathHeading | None, start_kind: str = "key points") -> Estimate:
+             came_deg: float | None, motion: PathHeading | None, start_kind: str = "key points") -> Estimate:
         """The predicted model's shape fitted from each of `starts` (the paper's placement, or the starts without
         key points), the best overlap kept, facing the way a stopped vehicle came when its track travelled far
         enough to tell (else both ways tried, the better overlap kept), its heading held at the path's when the
@@ -312,7 +287,7 @@ class Localizer:
         camera, metadata = self.calibration.camera, self.classifier.metadata
         order = np.argsort(-probabilities, kind="stable")[: self.params.uncertainty_top_k]
         candidates = [i for i in order if i == order[0] or probabilities[i] >= self.params.uncertainty_min_probability]
-        stopped_came_from = travel if travel is not None and motion is None else None
+        stopped_came_from = came_deg if came_deg is not None and motion is None else None
 
         def begin_at(start: VehicleBox, spec: VehicleSpec, facing_deg: float | None) -> VehicleBox:
             begin = VehicleBox(start.centre_mm, start.heading_deg if motion is None else motion.heading_deg,
@@ -329,7 +304,7 @@ class Localizer:
             fit_model(camera, weights, roi, metadata.shape_of(spec.model_id), begin_at(start, spec, first.box.heading_deg),
                       replace(self.fit_params, try_reversed=False), fit_heading=motion is None)
             for spec in (metadata.classes[index] for index in candidates[1:])]
-        box = facing(first.box, travel) if travel is not None else first.box
+        box = facing(first.box, came_deg) if came_deg is not None else first.box
         dimensions = fitted_spread([f.box for f in fits], probabilities[candidates]) if len(fits) > 1 else (0.0, 0.0)
         if motion is None:
             uncertainty = Uncertainty.combined(dimensions, self._calibration_part(box, box.length_mm / 2))
@@ -342,24 +317,6 @@ class Localizer:
 def joined(*reasons: str) -> str:
     """The non-empty reasons of a record, in one line."""
     return "; ".join(filter(None, reasons))
-
-
-def unclear_path(path: PathHeading | None, params: PipelineParams) -> NotPlaced | None:
-    """Why a moving vehicle's recent path cannot give its heading (too short, too irregular, or not telling which
-    way it goes); None when it can."""
-    if path is None:
-        return NotPlaced(ReasonCode.PATH_TOO_SHORT,
-                         f"it moves, but its path over the last {params.motion_window_frames} frames spans less than "
-                         f"{params.min_travel_mm:.0f} mm (pipeline.min_travel_mm)")
-    if path.sigma_deg > params.max_motion_sigma_deg:
-        return NotPlaced(ReasonCode.PATH_HEADING_UNCERTAIN,
-                         f"it moves, but its path's heading is uncertain (sigma {path.sigma_deg:.1f} deg > "
-                         f"pipeline.max_motion_sigma_deg)")
-    if path.speed_sigmas < params.min_speed_sigmas:
-        return NotPlaced(ReasonCode.PATH_WAY_UNCLEAR,
-                         f"it moves, but its path does not tell which way (its speed along it, "
-                         f"{path.speed_sigmas:.1f} sigma, is below pipeline.min_speed_sigmas)")
-    return None
 
 
 def not_localized(track: VehicleTrack, frame_index: int, why: NotPlaced) -> VehicleRecord:

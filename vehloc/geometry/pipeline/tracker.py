@@ -98,6 +98,11 @@ class StoppedVehicleTracker:
         self.tracks: list[VehicleTrack] = []
         self._next_id = 1
 
+    @property
+    def started(self) -> int:
+        """How many tracks were started so far (removed ones included)."""
+        return self._next_id - 1
+
     def update(self, boxes: list[Box], frame_index: int) -> TrackerUpdate:
         """Associate this frame's boxes with the tracks, start a track for each box left over, and remove the
         tracks missed in the last `max_lost_frames` frames."""
