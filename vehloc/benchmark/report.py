@@ -143,6 +143,18 @@ def contact_sheet(cells: Sequence[np.ndarray], path: Path, columns: int = 6) -> 
     return write_image(path, sheet)
 
 
+def why_not_localized(grouped: pd.DataFrame) -> str:
+    """The cases not localized by their reason code, each with one case's sentence (a case whose run raised: `error`)."""
+    failed = grouped[~grouped["localized"].astype(bool)]
+    if not len(failed):
+        return "Every case was localized."
+    codes = failed["reason_code"].fillna("").astype(str) if "reason_code" in failed else pd.Series("", failed.index)
+    table = (failed.assign(reason_code=codes.where(codes != "", "error"))
+             .groupby("reason_code").agg(cases=("reason", "size"), example=("reason", "first"))
+             .sort_values("cases", ascending=False).reset_index())
+    return markdown_table(table, "{:.0f}")
+
+
 def write_report(frame: pd.DataFrame, out_dir: Path, title: str, cells: Sequence[np.ndarray]) -> list[Path]:
     """`cases.csv`, `groups.csv`, `report.md`, `errors.png` and `failures.png` (when a case falls short)."""
     grouped = with_groups(frame)
@@ -159,10 +171,7 @@ def write_report(frame: pd.DataFrame, out_dir: Path, title: str, cells: Sequence
              "", "## Gates", "", *gate_lines(grouped), ""]
     for by, table in group_tables.items():
         lines += [f"## By {by.replace('_', ' ')}", "", markdown_table(table[["split", by] + shown], "{:.1f}"), ""]
-    reasons = grouped[~grouped["localized"].astype(bool)]["reason"].str.replace(r"\d+(\.\d+)?", "N", regex=True)
-    lines += ["## Why not localized", "", markdown_table(reasons.value_counts().rename_axis("reason")
-                                                          .reset_index(name="cases"), "{:.0f}") if len(reasons) else
-              "Every case was localized.", ""]
+    lines += ["## Why not localized", "", why_not_localized(grouped), ""]
     written.append(write_text(out_dir / "report.md", "\n".join(lines)))
     written.append(error_figure(grouped, out_dir / "errors.png"))
     sheet = contact_sheet(cells, out_dir / "failures.png")
