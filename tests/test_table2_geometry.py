@@ -8,7 +8,6 @@ from scene_configs import TABLE2_SCENES, scene_spec
 
 from vehloc.geometry.calibration import calibrate
 from vehloc.geometry.markers import detect_markers
-from vehloc.data.boxes import Box
 from vehloc.geometry.pipeline.tracker import StoppedVehicleTracker
 from vehloc.geometry.roi import VehicleRoiExtractor
 from vehloc.synth.road import render_road

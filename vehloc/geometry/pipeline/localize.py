@@ -1,8 +1,8 @@
 """The localization pipeline over a video: vehicle ROIs and tracks, one classification per track, key
 points and the paper's placement, the model fit, and a record per vehicle (when it stops, or every frame).
 
-Per frame: the background model gives vehicle boxes, the tracker follows them and says when one stops, and
-each track keeps a few crops for its vote. When a vehicle is to be localized its crops are classified
+Per frame: the background model gives vehicle boxes, the tracker follows them (one `VehicleTrack` per vehicle,
+removed once lost) and says when one stops, and each track keeps a few crops for its vote and its road path. When a vehicle is to be localized its crops are classified
 together (track voting), the key points (plate, else wheels) place the box of the predicted model's
 dimensions (the paper's method), the predicted model's shape is fitted to its silhouette from there (the
 model fit; a moving vehicle points where it goes, so with `heading_from_motion` its heading is its recent
@@ -10,7 +10,8 @@ path's and the fit finds only its position), and each estimate gets its 1-sigma 
 with neither plate nor wheels found is fitted from its silhouette's lower outline instead (`fit_from_silhouette`).
 A vehicle cut by the frame's edge, whose fit does not explain its silhouette, or that moves along a path too
 short or too irregular to tell its heading, or which way it goes (and shows no key points), is recorded as not
-localized, with the reason.
+localized, with its reason code and sentence: a stage that cannot place a vehicle returns a `NotPlaced`, never an
+exception that ends the video.
 """
 
 from __future__ import annotations
@@ -27,13 +28,13 @@ from vehloc.errors import VehlocError
 from vehloc.geometry.keypoints import paper_placement
 from vehloc.geometry.model_fit import best_start, fit_model
 from vehloc.geometry.motion import PathHeading
-from vehloc.geometry.placement import VehicleBox, direction_of, facing, heading_of
+from vehloc.geometry.placement import VehicleBox, direction_of, facing
 from vehloc.geometry.outcome import NotPlaced, ReasonCode
 from vehloc.geometry.roi import VehicleRoiExtractor
 from vehloc.geometry.silhouette_start import silhouette_start_headings_deg
 from vehloc.geometry.camera_calibration import CameraCalibration
 from vehloc.geometry.pipeline.timing import StageClock
-from vehloc.geometry.pipeline.settings import LocalizeSettings, PipelineParams
+from vehloc.geometry.pipeline.settings import LocalizeSettings
 from vehloc.geometry.pipeline.tracker import StoppedVehicleTracker, VehicleTrack
 from vehloc.geometry.pipeline.travel import Travel, track_travel
 from vehloc.geometry.uncertainty import (

@@ -15,6 +15,7 @@ from vehloc.geometry.model_fit import FitParams
 from vehloc.geometry.pipeline.tracker import TrackerParams
 from vehloc.geometry.roi import RoiParams
 
+
 @dataclass(frozen=True)
 class PipelineParams:
     """Settings of the pipeline itself (`conf/localize/pipeline/default.yaml`)."""
@@ -52,7 +53,6 @@ class PipelineParams:
     def from_config(cls, **overrides: object) -> PipelineParams:
         """The settings of `conf/localize/pipeline/default.yaml`, with `overrides`."""
         return params_from_config(cls, "localize/pipeline/default.yaml", overrides)
-
 
 
 STAGE_GROUPS = ("pipeline", "roi", "tracker", "footprint", "plate", "wheels", "fit")

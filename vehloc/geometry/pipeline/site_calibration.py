@@ -24,7 +24,6 @@ from vehloc.geometry.calibration import (
 from vehloc.geometry.camera_calibration import CameraCalibration
 from vehloc.geometry.markers import DetectedMarker, MarkerDetectionParams, detect_markers
 from vehloc.geometry.pipeline.overlay import draw_calibration
-from vehloc.geometry.projective import ProjectiveTransform
 from vehloc.geometry.site import Site, SiteError
 
 CALIBRATION_MODES = ("detect", "guess")
