@@ -2,14 +2,13 @@
 cameras and light (`cases`), what of each car a camera can see (`visibility`), one case rendered and
 localized against its truth (`runner`), and the per-group rates, tables and figures (`report`)."""
 
-from vehloc.benchmark.cases import BenchmarkCase, draw_case
-from vehloc.benchmark.oracle import TrueModelClassifier
-from vehloc.benchmark.report import write_report
-from vehloc.benchmark.runner import CaseOutcome, run_case
-from vehloc.benchmark.suite import BenchmarkSettings, run_benchmark
-from vehloc.benchmark.visibility import Visibility, VisibilityParams
+from vehloc.api import lazy_api
 
-__all__ = [
-    "BenchmarkCase", "BenchmarkSettings", "CaseOutcome", "TrueModelClassifier", "Visibility", "VisibilityParams",
-    "draw_case", "run_benchmark", "run_case", "write_report",
-]
+__all__, __getattr__ = lazy_api(__name__, {
+    "cases": ["BenchmarkCase", "draw_case"],
+    "oracle": ["TrueModelClassifier"],
+    "report": ["write_report"],
+    "runner": ["CaseOutcome", "run_case"],
+    "suite": ["BenchmarkSettings", "run_benchmark"],
+    "visibility": ["Visibility", "VisibilityParams"],
+})

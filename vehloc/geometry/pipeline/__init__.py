@@ -5,28 +5,18 @@ track's crops are voted on once, the stopped (or every) vehicle is placed and fi
 the site calibration's files and the `vehloc-localize` and `vehloc-calibrate` CLIs. The names below are its
 API."""
 
-from vehloc.geometry.pipeline.evaluation import table2_rows, write_table2
-from vehloc.geometry.pipeline.localize import (
-    Estimate,
-    Localizer,
-    Status,
-    VehicleRecord,
-    localize_frames,
-)
-from vehloc.geometry.pipeline.settings import LocalizeSettings, PipelineParams
-from vehloc.geometry.pipeline.site_calibration import SiteCalibration, calibrate_site, write_calibration_files
-from vehloc.geometry.pipeline.table2 import PoseError, pose_error
-from vehloc.geometry.pipeline.timing import StageClock
-from vehloc.geometry.pipeline.tracker import StoppedVehicleTracker, TrackerParams, TrackerUpdate, TrackState, VehicleTrack
-from vehloc.geometry.pipeline.travel import Travel, track_travel
-from vehloc.geometry.pipeline.video import MediaError, VideoInfo, iter_frames, read_still, video_info
-from vehloc.geometry.pipeline.video_localization import VideoLocalization, localize_video
-from vehloc.geometry.pipeline.votes import TrackVotes
+from vehloc.api import lazy_api
 
-__all__ = [
-    "Estimate", "LocalizeSettings", "Localizer", "MediaError", "PipelineParams", "PoseError",
-    "SiteCalibration", "StageClock", "Status", "StoppedVehicleTracker", "TrackState", "TrackVotes", "TrackerParams",
-    "TrackerUpdate", "Travel", "VehicleRecord", "VehicleTrack", "VideoInfo", "VideoLocalization", "calibrate_site",
-    "iter_frames", "localize_frames", "localize_video", "pose_error", "read_still", "table2_rows", "track_travel",
-    "video_info", "write_calibration_files", "write_table2",
-]
+__all__, __getattr__ = lazy_api(__name__, {
+    "evaluation": ["table2_rows", "write_table2"],
+    "localize": ["Estimate", "Localizer", "Status", "VehicleRecord", "localize_frames"],
+    "settings": ["LocalizeSettings", "PipelineParams"],
+    "site_calibration": ["SiteCalibration", "calibrate_site", "write_calibration_files"],
+    "table2": ["PoseError", "pose_error"],
+    "timing": ["StageClock"],
+    "tracker": ["StoppedVehicleTracker", "TrackerParams", "TrackerUpdate", "TrackState", "VehicleTrack"],
+    "travel": ["Travel", "track_travel"],
+    "video": ["MediaError", "VideoInfo", "iter_frames", "read_still", "video_info"],
+    "video_localization": ["VideoLocalization", "localize_video"],
+    "votes": ["TrackVotes"],
+})

@@ -2,8 +2,8 @@
 points and the paper's placement, the model fit, and a record per vehicle (when it stops, or every frame).
 
 Per frame: the background model gives vehicle boxes, the tracker follows them (one `VehicleTrack` per vehicle,
-removed once lost) and says when one stops, and each track keeps a few crops for its vote and its road path. When a vehicle is to be localized its crops are classified
-together (track voting), the key points (plate, else wheels) place the box of the predicted model's
+removed once lost) and says when one stops, and each track keeps a few crops for its vote and its road path. When
+a vehicle is to be localized its crops are classified together (track voting), the key points (plate, else wheels) place the box of the predicted model's
 dimensions (the paper's method), the predicted model's shape is fitted to its silhouette from there (the
 model fit; a moving vehicle points where it goes, so with `heading_from_motion` its heading is its recent
 path's and the fit finds only its position), and each estimate gets its 1-sigma uncertainty. A stopped vehicle
@@ -49,7 +49,6 @@ from vehloc.infer.classifier import VehicleClassifier
 from vehloc.infer.preprocess import MIN_SIDE_PX
 
 
-
 class Status(StrEnum):
     """A record's outcome."""
 
@@ -58,7 +57,7 @@ class Status(StrEnum):
 
 
 FIT_STARTS = {"key points": "paper's placement", "travel": "track's travel", "silhouette": "silhouette"}
-"""Where a model fit starts (`Estimate.start`), and how a record's reason names it."""
+"""Where a model fit starts (`Estimate.start`), and how a record's notes name it."""
 
 
 def travel_start_box(nearest_mm: np.ndarray, camera_foot_mm: np.ndarray, length_mm: float, width_mm: float,
@@ -230,8 +229,9 @@ class Localizer:
             probabilities = track.votes.vote(self.classifier)
         top1 = self.classifier.predictions(probabilities[None], top_k=1)[0].top1
         spec = next(c for c in self.classifier.classes if c.model_id == top1.model_id)
-        record = VehicleRecord(track.track_id, frame_index, box, Status.LOCALIZED, None, "", "", top1.model_id,
-                               top1.make, top1.model, top1.probability, tuple(float(v) for v in spec.dims_mm))
+        record = VehicleRecord(track.track_id, frame_index, box, Status.LOCALIZED, model_id=top1.model_id,
+                               make=top1.make, model=top1.model, probability=top1.probability,
+                               dims_mm=tuple(float(v) for v in spec.dims_mm))
         roi = box.enlarged(self.params.detector_roi_fraction, width_px, height_px)
         went = self.travel(track, frame_index)
         came, motion, unclear = went.came_heading_deg, went.motion, went.unclear

@@ -38,15 +38,14 @@ class Travel:
 
 
 def track_travel(track: VehicleTrack, frame_index: int, moving: bool, params: PipelineParams,
-           road_to_image: ProjectiveTransform, camera_foot_mm: np.ndarray) -> Travel:
+                 road_to_image: ProjectiveTransform, camera_foot_mm: np.ndarray) -> Travel:
     """The travel of `track` at `frame_index`; `moving` as the tracker says (with `pipeline.heading_from_motion`)."""
-    whole = path_heading(np.array(track.ground_points_mm, dtype=float).reshape(-1, 2),
-                         np.array(track.ground_frames, dtype=float), params.min_travel_mm, road_to_image,
+    points = np.array(track.ground_points_mm, dtype=float).reshape(-1, 2)
+    whole = path_heading(points, np.array(track.ground_frames, dtype=float), params.min_travel_mm, road_to_image,
                          params.motion_jitter_px)
     came = visible_end = None
     if whole is not None and whole.speed_sigmas >= params.min_speed_sigmas:
         came = whole.heading_deg
-        points = np.array(track.ground_points_mm, dtype=float).reshape(-1, 2)
         middle = points[np.all(np.isfinite(points), axis=1)].mean(axis=0)
         towards = float(direction_of(came) @ (np.asarray(camera_foot_mm, dtype=float) - middle)) > 0
         visible_end = "front" if towards else "rear"
