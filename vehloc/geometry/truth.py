@@ -51,7 +51,7 @@ class CarTruth:
     axles lies along the car, from the footprint's centre towards the front (a specification, with the
     tyres it gives the true pose as the paper measures it). ``poses`` and ``boxes`` hold one entry per frame,
     None while the car is not in the scene (poses) or not in view (boxes). ``plates`` is empty for a car
-    rendered without licence plates."""
+    rendered without licence plates; ``speed_kmh`` is a passing car's constant speed (None for a stopping one)."""
 
     model_id: int
     make: str
@@ -68,6 +68,7 @@ class CarTruth:
     tyre_contacts_mm: np.ndarray
     footprint_corners_mm: np.ndarray
     plates: dict[str, PlateTruth]
+    speed_kmh: float | None
     poses: tuple[RoadPose | None, ...]
     boxes: tuple[Box | None, ...]
 
@@ -140,11 +141,13 @@ def _optional(convert: Callable[[Any], T]) -> Callable[[Any], T | None]:
     return lambda raw: None if raw is None else convert(raw)
 
 
-def _per_frame(convert: Callable[[Any], T], frame_count: int) -> Callable[[Any], tuple[T | None, ...]]:
+def _per_frame(convert: Callable[[Any], T], frame_count: int, first_frame: int) -> Callable[[Any], tuple[T | None, ...]]:
+    """A list of one entry per frame from `first_frame` on (the car's frames in the scene; None before and after)."""
     def read(raw: Any) -> tuple[T | None, ...]:
-        if not isinstance(raw, list) or len(raw) != frame_count:
-            raise ValueError(f"expected a list of {frame_count} frames")
-        return tuple(None if item is None else convert(item) for item in raw)
+        if not isinstance(raw, list) or not 0 <= first_frame <= first_frame + len(raw) <= frame_count:
+            raise ValueError(f"expected a list of at most {frame_count - first_frame} frames from frame {first_frame}")
+        values = tuple(None if item is None else convert(item) for item in raw)
+        return (None,) * first_frame + values + (None,) * (frame_count - first_frame - len(values))
 
     return read
 
@@ -160,6 +163,7 @@ def _plate(reader: _Reader, raw: Any, where: str) -> PlateTruth:
 
 def _car(reader: _Reader, raw: Any, where: str, frame_count: int) -> CarTruth:
     plates = reader.get(raw, "plates", where)
+    first_frame = reader.value(raw, "per_frame_from", where, int) if "per_frame_from" in raw else 0
     return CarTruth(
         model_id=reader.value(raw, "model_id", where, int),
         make=reader.value(raw, "make", where, str),
@@ -177,8 +181,9 @@ def _car(reader: _Reader, raw: Any, where: str, frame_count: int) -> CarTruth:
         footprint_corners_mm=reader.array(raw, "footprint_corners_mm", where, (4, 2)),
         plates={end: _plate(reader, reader.get(plates, end, f"{where}.plates"), f"{where}.plates.{end}")
                 for end in (("front", "rear") if plates else ())},
-        poses=reader.value(raw, "poses", where, _per_frame(_pose, frame_count)),
-        boxes=reader.value(raw, "boxes_xyxy_px", where, _per_frame(_box, frame_count)),
+        speed_kmh=reader.value(raw, "speed_kmh", where, _optional(float)) if "speed_kmh" in raw else None,
+        poses=reader.value(raw, "poses", where, _per_frame(_pose, frame_count, first_frame)),
+        boxes=reader.value(raw, "boxes_xyxy_px", where, _per_frame(_box, frame_count, first_frame)),
     )
 
 

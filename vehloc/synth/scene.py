@@ -50,8 +50,8 @@ BOX_CONVENTION = (
 MOTION_CONVENTION = (
     "a car enters at entry_frame, approach_mm before target_pose along its heading; a stopping car "
     "decelerates evenly and stands at target_pose from stop_frame on; a passing car keeps the speed a "
-    "stopping one enters with (2 approach_mm per drive_frames), crosses target_pose at mid-time and "
-    "leaves approach_mm after it; poses are null while a car is not in the scene"
+    "stopping one enters with (2 approach_mm per drive_frames; its own speed_kmh where it has one), crosses "
+    "target_pose at mid-time and leaves approach_mm after it; poses are null while a car is not in the scene"
 )
 
 
@@ -87,7 +87,8 @@ class CameraSpec:
 class CarSpec:
     """One car of a scene: a catalog model and paint, its target pose, the distance it drives to reach it,
     whether it stops there (else it passes through at constant speed), how many frames after the
-    empty ones it enters, and whether it carries licence plates."""
+    empty ones it enters, whether it carries licence plates, and a passing car's own speed (else the one a
+    stopping car enters with)."""
 
     model_id: int
     colour_index: int
@@ -98,8 +99,13 @@ class CarSpec:
     stops: bool
     delay_frames: int
     plates: bool = True
+    speed_kmh: float | None = None
 
     def __post_init__(self) -> None:
+        if self.speed_kmh is not None:
+            check_range("speed_kmh", self.speed_kmh, 0.0, 400.0, low_open=True)
+            if self.stops:
+                raise ValueError("speed_kmh is a passing car's own speed: a stopping car (stops: true) has none")
         ids = [m.model_id for m in CATALOG]
         if self.model_id not in ids:
             raise ValueError(f"model_id {self.model_id} is not a catalog model ({min(ids)} to {max(ids)})")
@@ -115,6 +121,12 @@ class CarSpec:
     @property
     def target_pose(self) -> CarPose:
         return CarPose(self.target_x_mm, self.target_y_mm, self.target_heading_deg)
+
+    def drive_frames(self, scene_drive_frames: int, fps: float) -> int:
+        """Frames from entering to stopping, or to leaving for a passing car (its own speed's where it has one)."""
+        if self.speed_kmh is None:
+            return scene_drive_frames
+        return int(np.ceil(2.0 * self.approach_mm / (self.speed_kmh / 3.6) * fps / 1000.0))
 
     @property
     def model(self) -> CarModel:
@@ -167,8 +179,9 @@ class SceneSpec:
 
     @property
     def frame_count(self) -> int:
-        """Empty frames, the latest car's delay and drive, then the stopped frames."""
-        return self.empty_frames + max(car.delay_frames for car in self.cars) + self.drive_frames + self.stopped_frames
+        """Empty frames, until the last car stops or leaves, then the stopped frames."""
+        last = max(car.delay_frames + car.drive_frames(self.drive_frames, self.fps) for car in self.cars)
+        return self.empty_frames + last + self.stopped_frames
 
     def entry_frame(self, car: CarSpec) -> int:
         """First frame with `car` in the scene."""
@@ -188,6 +201,10 @@ def car_pose_at(spec: SceneSpec, car: CarSpec, frame: int) -> CarPose | None:
         if elapsed >= spec.drive_frames:
             return car.target_pose
         offset_mm = -car.approach_mm * (1.0 - elapsed / spec.drive_frames) ** 2
+    elif car.speed_kmh is not None:
+        offset_mm = car.speed_kmh / 3.6 * 1000.0 * elapsed / spec.fps - car.approach_mm
+        if offset_mm > car.approach_mm:
+            return None
     else:
         if elapsed > spec.drive_frames:
             return None
@@ -250,7 +267,9 @@ def _car_truth(spec: SceneSpec, car: CarSpec, camera: PinholeCamera, boxes: Sequ
     model, pose = car.model, car.target_pose
     contacts_mm = pose.car_to_world(tyre_contacts_car_mm(model))
     corners_mm = pose.car_to_world(footprint_car_mm(model))
-    poses = [car_pose_at(spec, car, frame) for frame in range(spec.frame_count)]
+    first = spec.entry_frame(car)
+    last = spec.frame_count if car.stops else min(spec.frame_count, first + car.drive_frames(spec.drive_frames, spec.fps) + 1)
+    poses = [car_pose_at(spec, car, frame) for frame in range(first, last)]
     return {
         "model_id": model.model_id,
         "make": model.make,
@@ -262,6 +281,8 @@ def _car_truth(spec: SceneSpec, car: CarSpec, camera: PinholeCamera, boxes: Sequ
         "wheelbase_mm": model.wheelbase_mm,
         "axle_middle_x_mm": (model.front_axle_x_mm + model.rear_axle_x_mm) / 2,
         "stops": car.stops,
+        "speed_kmh": None if car.stops else (car.speed_kmh if car.speed_kmh is not None
+                                             else 2.0 * car.approach_mm / spec.drive_frames * spec.fps * 3.6e-3),
         "entry_frame": spec.entry_frame(car),
         "stop_frame": spec.stop_frame(car),
         "target_pose": _pose_truth(pose),
@@ -277,8 +298,9 @@ def _car_truth(spec: SceneSpec, car: CarSpec, camera: PinholeCamera, boxes: Sequ
             for end, plate in (plates_seen(model, pose, camera) if car.plates else {}).items()
         },
         "plate_corner_order": "counter-clockwise seen from outside the car, from the lower corner on its right",
+        "per_frame_from": first,
         "poses": [None if p is None else _pose_truth(p) for p in poses],
-        "boxes_xyxy_px": [None if box is None else list(box.to_inclusive()) for box in boxes],
+        "boxes_xyxy_px": [None if box is None else list(box.to_inclusive()) for box in boxes[first:last]],
     }
 
 

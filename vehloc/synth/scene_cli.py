@@ -15,8 +15,9 @@ from vehloc.atomic import check_output_dir
 from vehloc.config import ConfigError, config_dir
 from vehloc.errors import exit_on_error, hydra_main
 from vehloc.geometry.site import site_yaml
-from vehloc.synth.scene import SceneError, SceneSpec, check_cars_in_view, write_scene
+from vehloc.synth.scene import SceneError, check_cars_in_view, write_scene
 from vehloc.synth.scene_site import scene_site
+from vehloc.synth.traffic import scene_from_config
 
 
 @exit_on_error("vehloc-scene")
@@ -26,7 +27,7 @@ def _run(cfg: DictConfig) -> None:
     noise = cfg.site_click_noise_px
     if isinstance(noise, bool) or not isinstance(noise, (int, float)) or not math.isfinite(noise) or noise < 0:
         raise ConfigError(f"site_click_noise_px: expected a number >= 0, got {noise!r}")
-    spec = SceneSpec.from_dict(OmegaConf.to_container(cfg.scene, resolve=True))
+    spec = scene_from_config(OmegaConf.to_container(cfg.scene, resolve=True))
     out_dir = check_output_dir(Path(cfg.out), "out")
     check_cars_in_view(spec)
     try:
