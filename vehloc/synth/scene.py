@@ -142,7 +142,8 @@ class CarSpec:
 @dataclass(frozen=True)
 class SceneSpec:
     """Everything that defines a rendered traffic scene (a `conf/scene/` config): camera, road, cars,
-    timing, light, sensor noise, codec and seed."""
+    timing, light, sensor noise, codec and seed, and where the speed truth's measurement lines cross the road
+    (none: no speed truth)."""
 
     name: str
     camera: CameraSpec
@@ -157,8 +158,11 @@ class SceneSpec:
     noise_sigma: float
     codec: str
     seed: int
+    measurement_lines_y_mm: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
+        if self.measurement_lines_y_mm and len(self.measurement_lines_y_mm) < 2:
+            raise ValueError("measurement_lines_y_mm: the speed truth needs at least two measurement lines")
         if not self.cars:
             raise ValueError("cars: a scene needs at least one car")
         check_range("empty_frames", self.empty_frames, 0, MAX_FRAMES)
@@ -383,12 +387,18 @@ def check_cars_in_view(spec: SceneSpec) -> None:
 
 def write_scene(spec: SceneSpec, out_dir: Path, site_yaml: str | None = None) -> tuple[Path, Path]:
     """Render a scene to `out_dir/video.avi` and `out_dir/ground_truth.json` (and `site_yaml`, the text of its
-    site file, to `out_dir/site.yaml`); return the video's and the truth's paths. Every file is written to a
+    site file, to `out_dir/site.yaml`; with measurement lines, the speed benchmark's ground truth to
+    `out_dir/gt_data.json`); return the video's and the truth's paths. Every file is written to a
     temporary sibling first, and they all replace their targets together when the last is complete, so an
     interrupt or a failure leaves an earlier scene in `out_dir` whole and matching."""
+    from vehloc.synth.speed_truth import speed_ground_truth
+
     check_cars_in_view(spec)
     video_path, truth_path = out_dir / "video.avi", out_dir / "ground_truth.json"
-    targets = [video_path, truth_path] + ([out_dir / "site.yaml"] if site_yaml is not None else [])
+    extra = {"site.yaml": site_yaml} if site_yaml is not None else {}
+    if spec.measurement_lines_y_mm:
+        extra["gt_data.json"] = json.dumps(speed_ground_truth(spec, str(video_path)), indent=1)
+    targets = [video_path, truth_path] + [out_dir / name for name in extra]
     with atomic_paths(targets) as temporaries:
         staged = temporaries[0].with_name(temporaries[0].name + video_path.suffix)  # OpenCV picks the container by suffix
         try:
@@ -397,6 +407,6 @@ def write_scene(spec: SceneSpec, out_dir: Path, site_yaml: str | None = None) ->
         finally:
             staged.unlink(missing_ok=True)
         temporaries[1].write_text(json.dumps(ground_truth(spec, boxes), indent=1), encoding="utf-8")
-        if site_yaml is not None:
-            temporaries[2].write_text(site_yaml, encoding="utf-8")
+        for temporary, text in zip(temporaries[2:], extra.values()):
+            temporary.write_text(text, encoding="utf-8")
     return video_path, truth_path

@@ -61,6 +61,8 @@ def _run(cfg: DictConfig) -> None:
         print(f"no vehicle {'in view' if every else 'stopped'} in {params.video}: empty records in {out_dir}")
     else:
         print(f"{len(run.records)} record(s), {run.localized} localized: {out_dir / 'records.csv'}")
+    if run.speeds:
+        print(run.speeds)
     if truth is not None:
         print(f"Table 2 against {params.truth}: {out_dir / 'table2.md'}")
 

@@ -12,6 +12,7 @@ from typing import Any
 from vehloc.config import ConfigError, build_params, check_range, config_dir, params_from_config
 from vehloc.geometry.keypoints import DetectorParams
 from vehloc.geometry.model_fit import FitParams
+from vehloc.geometry.pipeline.track_speed import SpeedParams
 from vehloc.geometry.pipeline.tracker import TrackerParams
 from vehloc.geometry.roi import RoiParams
 
@@ -55,20 +56,21 @@ class PipelineParams:
         return params_from_config(cls, "localize/pipeline/default.yaml", overrides)
 
 
-STAGE_GROUPS = ("pipeline", "roi", "tracker", "footprint", "plate", "wheels", "fit")
+STAGE_GROUPS = ("pipeline", "roi", "tracker", "footprint", "plate", "wheels", "fit", "speed")
 """The groups of `conf/localize/` that hold the stages' settings."""
 
 
 @dataclass(frozen=True)
 class LocalizeSettings:
     """Every stage's settings, checked: the pipeline's own, the background model's, the tracker's, the key-point
-    detectors' and the model fit's."""
+    detectors', the model fit's and the speeds'."""
 
     pipeline: PipelineParams
     roi: RoiParams
     tracker: TrackerParams
     detectors: DetectorParams
     fit: FitParams
+    speed: SpeedParams
 
     @classmethod
     def from_mapping(cls, values: Mapping[str, Any]) -> LocalizeSettings:
@@ -78,7 +80,7 @@ class LocalizeSettings:
         return cls(build_params(PipelineParams, values["pipeline"], "pipeline"),
                    build_params(RoiParams, values["roi"], "roi"),
                    build_params(TrackerParams, values["tracker"], "tracker"), detectors,
-                   build_params(FitParams, values["fit"], "fit"))
+                   build_params(FitParams, values["fit"], "fit"), build_params(SpeedParams, values["speed"], "speed"))
 
     @classmethod
     def compose(cls, overrides: Sequence[str] = ()) -> LocalizeSettings:

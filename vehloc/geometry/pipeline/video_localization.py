@@ -1,5 +1,6 @@
 """One video through the localizer and its files: the records (CSV + JSON), a picture of each localized
-vehicle, and the paper's Table 2 when the scene's truth is given. What `vehloc-localize` and `vehloc-demo` run."""
+vehicle, every vehicle's path and speed (`speed.enabled`), and the paper's Table 2 when the scene's truth is given.
+What `vehloc-localize` and `vehloc-demo` run."""
 
 from __future__ import annotations
 
@@ -16,18 +17,23 @@ from vehloc.atomic import write_image, write_text
 from vehloc.geometry.pipeline.drawing import METHOD_COLOURS_BGR, draw_cuboid, write_birds_eye
 from vehloc.geometry.pipeline.evaluation import table2_rows, write_case_figures, write_table2
 from vehloc.geometry.pipeline.localize import Localizer, Status, VehicleRecord
+from vehloc.geometry.pipeline.speed_files import write_speed_files
+from vehloc.geometry.pipeline.track_speed import TrackSpeeds, VehicleSpeed, assign_lanes
 from vehloc.geometry.truth import SceneTruth
 from vehloc.geometry.pipeline.video import iter_frames, video_info
 
 
 @dataclass(frozen=True)
 class VideoLocalization:
-    """The records of one video and the files written for it (`table2` when truth was given)."""
+    """The records of one video, its vehicles' speeds and the files written for it (`table2` when truth was given;
+    `speeds` says what the speed files hold)."""
 
     records: tuple[VehicleRecord, ...]
     frames: int
     out_dir: Path
     table2: pd.DataFrame | None
+    vehicles: tuple[VehicleSpeed, ...] = ()
+    speeds: str = ""
 
     @property
     def localized(self) -> int:
@@ -60,6 +66,9 @@ def localize_video(localizer: Localizer, video: str | Path, out_dir: Path, truth
     out_dir.mkdir(parents=True, exist_ok=True)
     total = info.frame_count if max_frames is None else min(info.frame_count, max_frames)
     records: list[VehicleRecord] = []
+    vehicles: list[VehicleSpeed] = []
+    speeds = TrackSpeeds(localizer.classifier, localizer.calibration, localizer.speed_params, info.fps,
+                         localizer.params.motion_jitter_px)
     frames = 0
     for frame_index, frame in enumerate(tqdm(iter_frames(video), total=total, desc="frames", unit="frame",
                                              disable=not progress)):
@@ -70,12 +79,18 @@ def localize_video(localizer: Localizer, video: str | Path, out_dir: Path, truth
             records.append(record)
             if pictures and record.status == Status.LOCALIZED:
                 annotate(frame, record, localizer, out_dir)
+        vehicles.extend(speeds.measure(track) for track in localizer.take_finished())
+    vehicles.extend(speeds.measure(track) for track in localizer.take_finished(end_of_video=True))
     rows = [row for record in records for row in record.rows()]
     write_text(out_dir / "records.csv", pd.DataFrame(rows).to_csv(index=False, float_format="%.2f"))
     write_text(out_dir / "records.json", records_json(records))
+    summary = ""
+    if localizer.speed_params.enabled:
+        vehicles = assign_lanes(sorted(vehicles, key=lambda v: v.track_id), localizer.speed_params)
+        summary = write_speed_files(vehicles, localizer.calibration, out_dir, str(video))
     table = None
     if truth is not None:
         table = pd.DataFrame(table2_rows(truth, records))
         write_table2(table, out_dir, f"Table 2: {truth.name}")
         write_case_figures(truth, records, out_dir)
-    return VideoLocalization(tuple(records), frames, out_dir, table)
+    return VideoLocalization(tuple(records), frames, out_dir, table, tuple(vehicles), summary)

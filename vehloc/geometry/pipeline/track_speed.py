@@ -1,0 +1,191 @@
+"""Every vehicle's path and speed, once its track is removed (or the video ends): its voted model, its reference
+point on the road in every frame the frame's edge does not cut it (the footprint centre under its box's bottom,
+`vehloc.geometry.box_bottom`), the constant-velocity speed through them with its 1-sigma, and its lane."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from enum import StrEnum
+
+import numpy as np
+
+from vehloc.config import check_choice, check_range, params_from_config
+from vehloc.geometry.box_bottom import centre_under_box_bottom
+from vehloc.geometry.camera_calibration import CameraCalibration
+from vehloc.geometry.motion import path_heading
+from vehloc.geometry.outcome import NotPlaced, ReasonCode
+from vehloc.geometry.pipeline.tracker import VehicleTrack
+from vehloc.geometry.speed import SpeedFit, fit_speed
+from vehloc.geometry.uncertainty import road_mm_per_px
+from vehloc.infer.classifier import VehicleClassifier
+
+REFERENCES = ("shape", "box_bottom")
+
+
+@dataclass(frozen=True)
+class SpeedParams:
+    """How tracks become speeds (`conf/localize/speed/default.yaml`)."""
+
+    enabled: bool
+    reference: str
+    min_points: int
+    min_distance_mm: float
+    lane_lines_x_mm: tuple[float, ...] | None
+    lane_gap_mm: float
+
+    def __post_init__(self) -> None:
+        check_choice("reference", self.reference, REFERENCES)
+        check_range("min_points", self.min_points, 3)
+        check_range("min_distance_mm", self.min_distance_mm, 0.0)
+        check_range("lane_gap_mm", self.lane_gap_mm, 0.0, low_open=True)
+        if self.lane_lines_x_mm is not None and list(self.lane_lines_x_mm) != sorted(self.lane_lines_x_mm):
+            raise ValueError(f"lane_lines_x_mm must be in increasing order, got {list(self.lane_lines_x_mm)}")
+
+    @classmethod
+    def from_config(cls, **overrides: object) -> SpeedParams:
+        """The settings of `conf/localize/speed/default.yaml`, with `overrides`."""
+        return params_from_config(cls, "localize/speed/default.yaml", overrides)
+
+
+class SpeedStatus(StrEnum):
+    MEASURED = "measured"
+    NOT_MEASURED = "not measured"
+
+
+@dataclass(frozen=True)
+class VehiclePath:
+    """A vehicle's reference points: the frames, the road points (N, 2) mm and their pixels (N, 2)."""
+
+    frames: np.ndarray
+    points_mm: np.ndarray
+    points_px: np.ndarray
+
+
+@dataclass(frozen=True)
+class VehicleSpeed:
+    """One vehicle of a video: its track, frames, voted model, path, speed (or why none) and lane."""
+
+    track_id: int
+    first_frame: int
+    last_frame: int
+    fps: float
+    path: VehiclePath
+    speed: SpeedFit | NotPlaced
+    model_id: int | None = None
+    make: str = ""
+    model: str = ""
+    probability: float | None = None
+    dims_mm: tuple[float, float, float] | None = None
+    lane: int | None = None
+
+    @property
+    def status(self) -> SpeedStatus:
+        return SpeedStatus.MEASURED if isinstance(self.speed, SpeedFit) else SpeedStatus.NOT_MEASURED
+
+    @property
+    def lateral_mm(self) -> float:
+        """The path's median position across the road (world X, mm); NaN without points."""
+        return float(np.median(self.path.points_mm[:, 0])) if len(self.path.frames) else float("nan")
+
+    def row(self) -> dict[str, object]:
+        """Its row of `tracks.csv`."""
+        fit = self.speed if isinstance(self.speed, SpeedFit) else None
+        failure = self.speed if isinstance(self.speed, NotPlaced) else None
+        return {
+            "track_id": self.track_id, "first_frame": self.first_frame, "last_frame": self.last_frame,
+            "first_time_s": self.first_frame / self.fps, "last_time_s": self.last_frame / self.fps, "lane": self.lane,
+            "model_id": self.model_id, "make": self.make, "model": self.model, "probability": self.probability,
+            **dict(zip(("length_mm", "width_mm", "height_mm"), self.dims_mm or (None, None, None))),
+            "speed_kmh": fit.speed_kmh if fit else None, "sigma_kmh": fit.sigma_kmh if fit else None,
+            "fit_sigma_kmh": fit.fit_sigma_kmh if fit else None, "scale_sigma_kmh": fit.scale_sigma_kmh if fit else None,
+            "heading_deg": fit.heading_deg if fit else None, "distance_m": fit.distance_m if fit else None,
+            "points": len(self.path.frames), "status": self.status.value,
+            "reason_code": failure.code.value if failure else "", "reason": failure.message if failure else "",
+        }
+
+    def trajectory_rows(self) -> list[dict[str, object]]:
+        """Its rows of `trajectories.csv`: one per frame of its path."""
+        return [{"track_id": self.track_id, "frame": int(frame), "time_s": frame / self.fps, "x_mm": point[0],
+                 "y_mm": point[1], "x_px": pixel[0], "y_px": pixel[1]}
+                for frame, point, pixel in zip(self.path.frames, self.path.points_mm, self.path.points_px)]
+
+
+class TrackSpeeds:
+    """Turns removed tracks into `VehicleSpeed`s: the classifier names each track's model (track voting), whose
+    shape corrects its box's bottom to its footprint centre."""
+
+    def __init__(self, classifier: VehicleClassifier, calibration: CameraCalibration, params: SpeedParams,
+                 fps: float, heading_jitter_px: float) -> None:
+        self.classifier = classifier
+        self.calibration = calibration
+        self.params = params
+        self.fps = fps
+        self.heading_jitter_px = heading_jitter_px
+
+    def measure(self, track: VehicleTrack) -> VehicleSpeed:
+        """The vehicle of a finished track."""
+        frames = np.array(track.ground_frames, dtype=int)
+        bottoms = np.array(track.ground_points_mm, dtype=float).reshape(-1, 2)
+        empty = VehiclePath(np.zeros(0, int), np.zeros((0, 2)), np.zeros((0, 2)))
+        vehicle = VehicleSpeed(track.track_id, track.frames[0], track.last_frame, self.fps, empty,
+                               NotPlaced(ReasonCode.TOUCHES_EDGE, "the frame's edge cut it in every frame"))
+        if track.votes.empty:
+            return replace(vehicle, speed=NotPlaced(ReasonCode.TOO_SMALL_TO_CLASSIFY,
+                                                    "its box was never big enough to classify"))
+        probabilities = track.votes.vote(self.classifier)
+        top1 = self.classifier.predictions(probabilities[None], top_k=1)[0].top1
+        spec = next(c for c in self.classifier.classes if c.model_id == top1.model_id)
+        vehicle = replace(vehicle, model_id=top1.model_id, make=top1.make, model=top1.model,
+                          probability=top1.probability, dims_mm=tuple(float(v) for v in spec.dims_mm))
+        if len(frames) == 0:
+            return vehicle
+        heading = path_heading(bottoms, frames.astype(float), self.params.min_distance_mm,
+                               self.calibration.road_to_image, self.heading_jitter_px)
+        if heading is None:
+            return replace(vehicle, speed=NotPlaced(ReasonCode.PATH_TOO_SHORT,
+                                                    "its path is too short to tell its direction"))
+        points = bottoms
+        if self.params.reference == "shape":
+            shape = self.classifier.metadata.shape_of(spec.model_id)
+            centres = [centre_under_box_bottom(self.calibration.camera, self.calibration.road_to_image, shape, bottom,
+                                               heading.heading_deg) for bottom in bottoms]
+            kept = [i for i, centre in enumerate(centres) if not isinstance(centre, NotPlaced)]
+            frames, points = frames[kept], np.array([centres[i] for i in kept]).reshape(-1, 2)
+        path = VehiclePath(frames, points, self.calibration.road_to_image(points) if len(points) else np.zeros((0, 2)))
+        speed = fit_speed(points, frames / self.fps, self.scale_sigma_fraction(points), self.params.min_points,
+                          self.params.min_distance_mm)
+        return replace(vehicle, path=path, speed=speed)
+
+    def scale_sigma_fraction(self, points_mm: np.ndarray) -> float:
+        """The calibration's relative error over a path: its reprojection error at the path's middle, in mm on the
+        road, at both ends, over the path's length."""
+        if len(points_mm) < 2:
+            return 0.0
+        length_mm = float(np.linalg.norm(points_mm[-1] - points_mm[0]))
+        if length_mm <= 0.0:
+            return 0.0
+        middle = points_mm[len(points_mm) // 2]
+        position_mm = self.calibration.rms_reprojection_px * road_mm_per_px(self.calibration.road_to_image, middle)
+        return float(np.sqrt(2.0) * position_mm / length_mm)
+
+
+def assign_lanes(vehicles: Sequence[VehicleSpeed], params: SpeedParams) -> list[VehicleSpeed]:
+    """Each vehicle's lane, numbered from the road's left (smallest X): between the site's lane lines where
+    `lane_lines_x_mm` gives them (None outside them), else the clusters of the paths' positions across the road
+    (a gap of `lane_gap_mm` between neighbours starts a lane)."""
+    lateral = np.array([v.lateral_mm for v in vehicles], dtype=float)
+    lanes: list[int | None] = [None] * len(vehicles)
+    if params.lane_lines_x_mm is not None:
+        lines = np.asarray(params.lane_lines_x_mm, dtype=float)
+        for i, x in enumerate(lateral):
+            index = int(np.searchsorted(lines, x))
+            lanes[i] = index - 1 if np.isfinite(x) and 0 < index < len(lines) else None
+    else:
+        order = [i for i in np.argsort(lateral) if np.isfinite(lateral[i])]
+        lane = 0
+        for previous, current in zip([None] + order[:-1], order):
+            if previous is not None and lateral[current] - lateral[previous] > params.lane_gap_mm:
+                lane += 1
+            lanes[current] = lane
+    return [replace(v, lane=lane) for v, lane in zip(vehicles, lanes)]
