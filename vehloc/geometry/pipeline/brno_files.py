@@ -85,10 +85,14 @@ class GroundTruth:
 def results_json(vehicles: list[VehicleSpeed], calibration: BrnoCalibration, video: str,
                  image_size_px: tuple[int, int]) -> str:
     """The results file of a video: every vehicle with a path, its image points on the road (`posX`, `posY`) per
-    frame (`frames`); beside the benchmark's fields, the video and its image size."""
-    cars = [{"id": int(v.track_id), "frames": [int(f) for f in v.path.frames],
-             "posX": [float(p[0]) for p in v.path.points_px], "posY": [float(p[1]) for p in v.path.points_px]}
-            for v in vehicles if len(v.path.frames)]
+    frame (`frames`), those its speed was measured on (`VehicleSpeed.used`); beside the benchmark's fields, the
+    video and its image size."""
+    cars = []
+    for v in vehicles:
+        frames, pixels = v.path.frames[v.used], v.path.points_px[v.used]
+        if len(frames):
+            cars.append({"id": int(v.track_id), "frames": [int(f) for f in frames],
+                         "posX": [float(p[0]) for p in pixels], "posY": [float(p[1]) for p in pixels]})
     return json.dumps({"camera_calibration": calibration.to_json(), "cars": cars, "video": video,
                        "image_size_px": list(image_size_px)}) + "\n"
 

@@ -151,7 +151,7 @@ class Localizer:
         settings = settings or LocalizeSettings.compose()
         self.params = settings.pipeline
         self.extractor = VehicleRoiExtractor(settings.roi)
-        self.tracker = StoppedVehicleTracker(self.params.vote_frames, settings.tracker)
+        self.tracker = StoppedVehicleTracker(self.params.vote_frames, settings.tracker, self.params.vote_policy)
         self.detectors = settings.detectors
         self.fit_params = settings.fit
         self.speed_params = settings.speed
@@ -169,8 +169,10 @@ class Localizer:
             if self.speed_params.enabled:
                 self.finished.extend(update.removed)
             for track in update.seen:
-                track.votes.add(frame_bgr, track.box)
-                if track.box.touches_border(width_px, height_px, self.params.border_margin_px):
+                cut = track.box.touches_border(width_px, height_px, self.params.border_margin_px)
+                if not (cut and track.votes.policy == "largest"):  # a cut view is large, not the best
+                    track.votes.add(frame_bgr, track.box)
+                if cut:
                     continue  # the frame cuts the vehicle: its box's bottom is not where it stands
                 bottom = np.array([[track.box.centre_px[0], track.box.y1 - 1.0]])
                 track.add_ground_point(self.calibration.road_to_image.inverse(bottom)[0], frame_index)

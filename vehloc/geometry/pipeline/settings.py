@@ -9,11 +9,12 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from vehloc.config import ConfigError, build_params, check_range, config_dir, params_from_config
+from vehloc.config import ConfigError, build_params, check_choice, check_range, config_dir, params_from_config
 from vehloc.geometry.keypoints import DetectorParams
 from vehloc.geometry.model_fit import FitParams
 from vehloc.geometry.pipeline.track_speed import SpeedParams
 from vehloc.geometry.pipeline.tracker import TrackerParams
+from vehloc.geometry.pipeline.votes import VOTE_POLICIES
 from vehloc.geometry.roi import RoiParams
 
 
@@ -23,6 +24,7 @@ class PipelineParams:
 
     every_frame: bool
     vote_frames: int
+    vote_policy: str
     detector_roi_fraction: float
     border_margin_px: int
     min_travel_mm: float
@@ -41,6 +43,7 @@ class PipelineParams:
     min_fit_iou: float
 
     def __post_init__(self) -> None:
+        check_choice("vote_policy", self.vote_policy, VOTE_POLICIES)
         check_range("motion_window_frames", self.motion_window_frames, 2)
         check_range("motion_max_gap_frames", self.motion_max_gap_frames, 1)
         check_range("motion_jitter_px", self.motion_jitter_px, 0.0)

@@ -62,7 +62,7 @@ def write_speed_files(vehicles: list[VehicleSpeed], calibration: CameraCalibrati
     where the camera cannot be written in the benchmark's model)."""
     write_text(out_dir / "tracks.csv", pd.DataFrame([v.row() for v in vehicles]).to_csv(index=False, float_format="%.3f"))
     rows = [row for v in vehicles for row in v.trajectory_rows()]
-    columns = ["track_id", "frame", "time_s", "x_mm", "y_mm", "x_px", "y_px"]
+    columns = ["track_id", "frame", "time_s", "x_mm", "y_mm", "x_px", "y_px", "used"]
     write_text(out_dir / "trajectories.csv", pd.DataFrame(rows, columns=columns).to_csv(index=False, float_format="%.3f"))
     write_bytes(out_dir / "speeds.png", speed_plot(vehicles, Path(video).name))
     measured = sum(v.status == SpeedStatus.MEASURED for v in vehicles)

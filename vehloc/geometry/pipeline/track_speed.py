@@ -1,6 +1,7 @@
 """Every vehicle's path and speed, once its track is removed (or the video ends): its voted model, its reference
-point on the road in every frame the frame's edge does not cut it (the footprint centre under its box's bottom,
-`vehloc.geometry.box_bottom`), the constant-velocity speed through them with its 1-sigma, and its lane."""
+point on the road in every frame the frame's edge does not cut it (the footprint centre at which the model's shape
+has the box's top where the vehicle's box has it, `vehloc.geometry.box_reference`), the constant-velocity speed
+through them with its 1-sigma, and its lane."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from enum import StrEnum
 import numpy as np
 
 from vehloc.config import check_choice, check_range, params_from_config
-from vehloc.geometry.box_bottom import centre_under_box_bottom
+from vehloc.geometry.box_reference import centre_from_box
 from vehloc.geometry.camera_calibration import CameraCalibration
 from vehloc.geometry.motion import path_heading
 from vehloc.geometry.outcome import NotPlaced, ReasonCode
@@ -20,7 +21,9 @@ from vehloc.geometry.speed import SpeedFit, fit_speed
 from vehloc.geometry.uncertainty import road_mm_per_px
 from vehloc.infer.classifier import VehicleClassifier
 
-REFERENCES = ("shape", "box_bottom")
+REFERENCES = ("shape_top", "shape_bottom", "box_bottom")
+"""A vehicle's reference point: the footprint centre from its box's top or bottom and its model's shape, or the road
+point under its box's bottom as it is."""
 
 
 @dataclass(frozen=True)
@@ -100,28 +103,35 @@ class VehicleSpeed:
             "speed_kmh": fit.speed_kmh if fit else None, "sigma_kmh": fit.sigma_kmh if fit else None,
             "fit_sigma_kmh": fit.fit_sigma_kmh if fit else None, "scale_sigma_kmh": fit.scale_sigma_kmh if fit else None,
             "heading_deg": fit.heading_deg if fit else None, "distance_m": fit.distance_m if fit else None,
-            "points": len(self.path.frames), "status": self.status.value,
+            "points": len(self.path.frames), "points_dropped": fit.dropped if fit else None, "status": self.status.value,
             "reason_code": failure.code.value if failure else "", "reason": failure.message if failure else "",
         }
 
+    @property
+    def used(self) -> np.ndarray:
+        """(N,) bool: the path's points its speed was measured on (all of them without a speed)."""
+        return self.speed.used if isinstance(self.speed, SpeedFit) else np.ones(len(self.path.frames), bool)
+
     def trajectory_rows(self) -> list[dict[str, object]]:
-        """Its rows of `trajectories.csv`: one per frame of its path."""
+        """Its rows of `trajectories.csv`: one per frame of its path, saying whether its speed used it."""
         return [{"track_id": self.track_id, "frame": int(frame), "time_s": frame / self.fps, "x_mm": point[0],
-                 "y_mm": point[1], "x_px": pixel[0], "y_px": pixel[1]}
-                for frame, point, pixel in zip(self.path.frames, self.path.points_mm, self.path.points_px)]
+                 "y_mm": point[1], "x_px": pixel[0], "y_px": pixel[1], "used": bool(used)}
+                for frame, point, pixel, used in zip(self.path.frames, self.path.points_mm, self.path.points_px,
+                                                     self.used)]
 
 
 class TrackSpeeds:
     """Turns removed tracks into `VehicleSpeed`s: the classifier names each track's model (track voting), whose
-    shape corrects its box's bottom to its footprint centre."""
+    shape takes its box's edge to its footprint centre (boxes found on frames shrunk `box_block_px` times)."""
 
     def __init__(self, classifier: VehicleClassifier, calibration: CameraCalibration, params: SpeedParams,
-                 fps: float, heading_jitter_px: float) -> None:
+                 fps: float, heading_jitter_px: float, box_block_px: float) -> None:
         self.classifier = classifier
         self.calibration = calibration
         self.params = params
         self.fps = fps
         self.heading_jitter_px = heading_jitter_px
+        self.box_block_px = box_block_px
 
     def measure(self, track: VehicleTrack) -> VehicleSpeed:
         """The vehicle of a finished track."""
@@ -146,10 +156,12 @@ class TrackSpeeds:
             return replace(vehicle, speed=NotPlaced(ReasonCode.PATH_TOO_SHORT,
                                                     "its path is too short to tell its direction"))
         points = bottoms
-        if self.params.reference == "shape":
-            shape = self.classifier.metadata.shape_of(spec.model_id)
-            centres = [centre_under_box_bottom(self.calibration.camera, self.calibration.road_to_image, shape, bottom,
-                                               heading.heading_deg) for bottom in bottoms]
+        if self.params.reference != "box_bottom":
+            shape, edge = self.classifier.metadata.shape_of(spec.model_id), self.params.reference.removeprefix("shape_")
+            boxes = dict(zip(track.frames, track.boxes))
+            centres = [centre_from_box(self.calibration.camera, shape, boxes[frame], heading.heading_deg, bottom, edge,
+                                       self.box_block_px)
+                       for frame, bottom in zip(frames, bottoms)]
             kept = [i for i, centre in enumerate(centres) if not isinstance(centre, NotPlaced)]
             frames, points = frames[kept], np.array([centres[i] for i in kept]).reshape(-1, 2)
         path = VehiclePath(frames, points, self.calibration.road_to_image(points) if len(points) else np.zeros((0, 2)))

@@ -90,11 +90,13 @@ class TrackerUpdate:
 class StoppedVehicleTracker:
     """Greedy IoU tracker; a track is stopped once its box centre stays, for N frames, within a fraction of the
     box diagonal (blob edges flicker by a few pixels even when the car stands). A track missed in
-    `max_lost_frames` frames in a row is removed; each new track keeps up to `vote_frames` crops for its vote."""
+    `max_lost_frames` frames in a row is removed; each new track keeps up to `vote_frames` crops for its vote, chosen
+    by `vote_policy` (`TrackVotes`)."""
 
-    def __init__(self, vote_frames: int, params: TrackerParams | None = None) -> None:
+    def __init__(self, vote_frames: int, params: TrackerParams | None = None, vote_policy: str = "spread") -> None:
         self.params = params or TrackerParams.from_config()
         self.vote_frames = vote_frames
+        self.vote_policy = vote_policy
         self.tracks: list[VehicleTrack] = []
         self._next_id = 1
 
@@ -115,7 +117,7 @@ class StoppedVehicleTracker:
             if overlaps[best] >= self.params.min_iou:
                 track.observe(unmatched.pop(best), frame_index)
         for box in unmatched:
-            track = VehicleTrack(self._next_id, TrackVotes(self.vote_frames))
+            track = VehicleTrack(self._next_id, TrackVotes(self.vote_frames, self.vote_policy))
             track.observe(box, frame_index)
             self.tracks.append(track)
             self._next_id += 1

@@ -68,7 +68,7 @@ def localize_video(localizer: Localizer, video: str | Path, out_dir: Path, truth
     records: list[VehicleRecord] = []
     vehicles: list[VehicleSpeed] = []
     speeds = TrackSpeeds(localizer.classifier, localizer.calibration, localizer.speed_params, info.fps,
-                         localizer.params.motion_jitter_px)
+                         localizer.params.motion_jitter_px, 1.0 / localizer.extractor.params.scale)
     frames = 0
     for frame_index, frame in enumerate(tqdm(iter_frames(video), total=total, desc="frames", unit="frame",
                                              disable=not progress)):
