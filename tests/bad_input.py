@@ -30,6 +30,7 @@ CLI_MODULES = {
     "vehloc-eval": "vehloc.train.evaluate",
     "vehloc-localize": "vehloc.geometry.pipeline.localize_cli",
     "vehloc-demo": "vehloc.demo.cli",
+    "vehloc-speed-eval": "vehloc.geometry.pipeline.speed_eval_cli",
 }
 
 

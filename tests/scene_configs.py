@@ -27,3 +27,13 @@ def scene_spec(name: str, **overrides: object) -> SceneSpec:
 def short_scene(name: str, **overrides: object) -> SceneSpec:
     """A scene with few frames (1 empty, 4 driving, 1 stopped) for fast tests; `overrides` replace settings."""
     return scene_spec(name, **{"empty_frames": 1, "drive_frames": 4, "stopped_frames": 1, **overrides})
+
+
+def traffic_scene(name: str = "traffic_720p", *overrides: str) -> SceneSpec:
+    """A traffic scene of `conf/scene/`, its cars drawn from its `traffic` block; `overrides` are Hydra overrides of
+    the scene's settings (`scene.traffic.duration_s=20`)."""
+    from vehloc.synth.traffic import scene_from_config
+
+    with initialize_config_dir(config_dir=str(config_dir()), version_base="1.3"):
+        cfg = compose(config_name="scene", overrides=[f"scene={name}", "out=unused", *overrides])
+    return scene_from_config(OmegaConf.to_container(cfg.scene, resolve=True))

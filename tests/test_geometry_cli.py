@@ -100,7 +100,8 @@ def test_scene_cli_writes_video_truth_and_site(tmp_path: Path) -> None:
     assert len(frames) == truth["frames"] == 9 and frames[0].shape == (720, 1280, 3)
     (car,) = truth["cars"]
     assert car["target_pose"] == {"x_mm": 194.0, "y_mm": 4060.0, "heading_deg": -2.07} and car["stop_frame"] == 7
-    assert car["boxes_xyxy_px"][2] is None and car["boxes_xyxy_px"][-1] is not None
+    assert car["per_frame_from"] == 3 and len(car["boxes_xyxy_px"]) == 6  # from its entry after the 3 empty frames
+    assert car["boxes_xyxy_px"][-1] is not None
     assert (tmp_path / "site.yaml").is_file()
     assert not [path for path in tmp_path.iterdir() if path.name.startswith(".")]  # no temporary file left
 

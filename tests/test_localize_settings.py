@@ -15,6 +15,7 @@ from vehloc.config import ConfigError
 from vehloc.geometry.keypoints import DetectorParams
 from vehloc.geometry.model_fit import FitParams
 from vehloc.geometry.pipeline.settings import LocalizeSettings, PipelineParams
+from vehloc.geometry.pipeline.track_speed import SpeedParams
 from vehloc.geometry.pipeline.tracker import TrackerParams
 from vehloc.geometry.roi import RoiParams
 
@@ -22,7 +23,7 @@ from vehloc.geometry.roi import RoiParams
 def test_the_composed_defaults_are_each_groups_defaults() -> None:
     assert LocalizeSettings.compose() == LocalizeSettings(PipelineParams.from_config(), RoiParams.from_config(),
                                                           TrackerParams.from_config(), DetectorParams.from_config(),
-                                                          FitParams.from_config())
+                                                          FitParams.from_config(), SpeedParams.from_config())
 
 
 def test_the_highway_experiment_sets_its_settings_and_no_other() -> None:
@@ -31,6 +32,14 @@ def test_the_highway_experiment_sets_its_settings_and_no_other() -> None:
     assert highway.roi == RoiParams.from_config(scale=1.0, close_kernel_px=5, min_area_fraction=0.002)
     assert (highway.tracker, highway.detectors, highway.fit) == (default.tracker, default.detectors, default.fit)
     assert default.pipeline.every_frame is False and default.roi.min_area_fraction == 0.001
+
+
+def test_the_traffic_experiment_votes_on_the_largest_views_and_changes_nothing_else() -> None:
+    default, traffic = LocalizeSettings.compose(), LocalizeSettings.compose(["experiment=traffic"])
+    assert default.pipeline.vote_policy == "spread"
+    assert traffic.pipeline == PipelineParams.from_config(vote_policy="largest")
+    assert (traffic.roi, traffic.tracker, traffic.detectors, traffic.fit, traffic.speed) == (
+        default.roi, default.tracker, default.detectors, default.fit, default.speed)
 
 
 @pytest.mark.parametrize(("overrides", "fragment"), [

@@ -139,15 +139,18 @@ def test_ground_truth_of_every_car_is_exact(tmp_path: Path) -> None:
         assert axle_gap_mm == pytest.approx(entry["wheelbase_mm"], abs=1e-6)
         np.testing.assert_allclose(homography(tyres), entry["tyre_contacts_px"], atol=1e-6)
         np.testing.assert_allclose(homography(footprint), entry["footprint_corners_px"], atol=1e-6)
+        first, held = entry["per_frame_from"], len(entry["poses"])  # the frames from its entry to its leaving
         motion = [car_pose_at(spec, car, f) for f in range(spec.frame_count)]
+        assert first == entry["entry_frame"] and all(p is None for p in motion[:first] + motion[first + held:])
         assert entry["poses"] == [None if p is None else {"x_mm": p.x_mm, "y_mm": p.y_mm, "heading_deg": p.heading_deg}
-                                  for p in motion]
-        assert len(entry["boxes_xyxy_px"]) == spec.frame_count
+                                  for p in motion[first:first + held]]
+        assert len(entry["boxes_xyxy_px"]) == held
         assert all(box is None for box, pose in zip(entry["boxes_xyxy_px"], entry["poses"]) if pose is None)
     stopping, passing = truth["cars"]
     assert (stopping["entry_frame"], stopping["stop_frame"], passing["entry_frame"], passing["stop_frame"]) == (1, 5, 16, None)
-    assert stopping["boxes_xyxy_px"][-1] is not None and passing["boxes_xyxy_px"][16] is not None
-    assert passing["poses"][20] is not None and passing["boxes_xyxy_px"][20] is None  # left the view
+    assert len(stopping["poses"]) == spec.frame_count - 1  # it stays to the end
+    assert stopping["boxes_xyxy_px"][-1] is not None and passing["boxes_xyxy_px"][0] is not None
+    assert passing["poses"][4] is not None and passing["boxes_xyxy_px"][4] is None  # frame 20: left the view
     marker = next(m for m in truth["markers"] if m["has_corners"] and None not in m["corners_px"])
     np.testing.assert_allclose(homography(np.array(marker["corners_mm"])), marker["corners_px"], atol=1e-6)
     np.testing.assert_allclose(truth["camera"]["centre_mm"], spec.camera.camera().centre_mm, atol=1e-9)

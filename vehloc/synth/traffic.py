@@ -35,7 +35,8 @@ class TrafficLane:
 class TrafficSpec:
     """Traffic over `duration_s`: `vehicles_per_minute` shared evenly by the lanes (Poisson arrivals), every car
     crossing the stretch `centre_y_mm` +- `approach_mm`, at least `min_headway_s` behind the car ahead in its lane
-    both where it enters and where it leaves, shifted across its lane by up to `lateral_jitter_mm`."""
+    both where it enters and where it leaves, shifted across its lane by up to `lateral_jitter_mm`, of the catalog's
+    models (or `model_ids`), a fraction `plates_fraction` of them with licence plates."""
 
     duration_s: float
     vehicles_per_minute: float
@@ -46,6 +47,7 @@ class TrafficSpec:
     lateral_jitter_mm: float = 300.0
     plates_fraction: float = 0.9
     seed: int = 0
+    model_ids: tuple[int, ...] | None = None
 
     def __post_init__(self) -> None:
         check_range("duration_s", self.duration_s, 0.0, 4 * 3600.0, low_open=True)
@@ -56,11 +58,16 @@ class TrafficSpec:
         check_range("plates_fraction", self.plates_fraction, 0.0, 1.0)
         if not self.lanes:
             raise SettingError("lanes", "traffic needs at least one lane")
+        known = {model.model_id for model in CATALOG}
+        if self.model_ids is not None and (not self.model_ids or not set(self.model_ids) <= known):
+            raise SettingError("model_ids", f"expected catalog model ids ({min(known)} to {max(known)}), got "
+                                            f"{list(self.model_ids)}")
 
 
 def traffic_cars(traffic: TrafficSpec, fps: float) -> tuple[CarSpec, ...]:
     """The cars of the traffic, in order of entry, each entering `delay_frames` after the scene's empty frames."""
     rng = np.random.default_rng(traffic.seed)
+    models = [m for m in CATALOG if traffic.model_ids is None or m.model_id in traffic.model_ids]
     mean_gap_s = 60.0 * len(traffic.lanes) / traffic.vehicles_per_minute
     stretch_m = 2.0 * traffic.approach_mm / 1000.0
     cars: list[tuple[int, CarSpec]] = []
@@ -72,7 +79,7 @@ def traffic_cars(traffic: TrafficSpec, fps: float) -> tuple[CarSpec, ...]:
             if exit_s < ahead_exit_s + traffic.min_headway_s:  # it would catch up: it enters later
                 time_s += ahead_exit_s + traffic.min_headway_s - exit_s
                 exit_s = ahead_exit_s + traffic.min_headway_s
-            model = CATALOG[int(rng.integers(len(CATALOG)))]
+            model = models[int(rng.integers(len(models)))]
             x_mm = lane.x_mm + float(rng.uniform(-1.0, 1.0)) * traffic.lateral_jitter_mm
             car = CarSpec(model.model_id, int(rng.integers(len(model.palette))), x_mm,
                           traffic.centre_y_mm, lane.heading_deg, traffic.approach_mm, stops=False,
