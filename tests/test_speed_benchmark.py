@@ -125,7 +125,7 @@ def test_the_results_file_reads_back_to_the_speeds_of_the_tracks(scene, tmp_path
                                      VehiclePath(frames, points, calibration.road_to_image(points)), speed))
     block = brno_calibration(calibration.camera, calibration.road_to_image, np.concatenate([v.path.points_mm for v in vehicles]))
     path = tmp_path / "system_vehloc.json"
-    path.write_text(results_json(vehicles, block, "video.avi", (1280, 720)))
+    path.write_text(results_json(vehicles, block, calibration.camera.road_to_image(), "video.avi", (1280, 720)))
     results = read_results(path)
     for vehicle, car in zip(vehicles, results.cars):
         metres = project_to_metres(car.points_px, results.calibration)

@@ -46,6 +46,21 @@ def shape_edge_px(camera: PinholeCamera, shape: VehicleShape, centre_mm: np.ndar
     return np.array([(pixels[:, 0].min() + pixels[:, 0].max()) / 2, row])
 
 
+def shape_box_size_px(camera: PinholeCamera, shape: VehicleShape, centre_mm: np.ndarray, heading_deg: float) -> np.ndarray:
+    """The width and height (px) of the box the shape would have at `centre_mm` and `heading_deg`; NaN where part of
+    it is behind the camera."""
+    pixels = camera.project(shape_points_world(shape, VehicleBox(np.asarray(centre_mm, float), heading_deg, 0.0, 0.0)))
+    return np.ptp(pixels, axis=0) if np.all(np.isfinite(pixels)) else np.full(2, np.nan)
+
+
+def box_mismatch(camera: PinholeCamera, shape: VehicleShape, box: Box, centre_mm: np.ndarray, heading_deg: float) -> float:
+    """How far the box's width and height are from the shape's at `centre_mm` (the larger relative difference): a
+    box that holds a neighbour too, or a part of the vehicle only, is far from it."""
+    expected = shape_box_size_px(camera, shape, centre_mm, heading_deg)
+    observed = np.array([box.width_px, box.height_px], dtype=float)
+    return float(np.max(np.abs(observed / expected - 1.0))) if np.all(expected > 0) else float("inf")
+
+
 def centre_from_box(camera: PinholeCamera, shape: VehicleShape, box: Box, heading_deg: float, start_mm: np.ndarray,
                     edge: str, block_px: float = 1.0) -> np.ndarray | NotPlaced:
     """The footprint centre (mm) at which the shape, heading `heading_deg`, has `box`'s `edge` middle

@@ -15,7 +15,8 @@ import numpy as np
 
 from vehloc.errors import VehlocError
 from vehloc.geometry.brno import BrnoCalibration
-from vehloc.geometry.pipeline.track_speed import VehicleSpeed
+from vehloc.geometry.projective import ProjectiveTransform
+from vehloc.geometry.pipeline.track_speed import SpeedStatus, VehicleSpeed
 
 GROUND_TRUTH_FIELDS = ("fps", "measurementLines", "laneDivLines", "invalidLanes", "distanceMeasurement", "cars")
 CAR_FIELDS = ("carId", "laneIndex", "intersections", "speed", "valid")
@@ -82,14 +83,16 @@ class GroundTruth:
     video: str | None = None
 
 
-def results_json(vehicles: list[VehicleSpeed], calibration: BrnoCalibration, video: str,
-                 image_size_px: tuple[int, int]) -> str:
-    """The results file of a video: every vehicle with a path, its image points on the road (`posX`, `posY`) per
-    frame (`frames`), those its speed was measured on (`VehicleSpeed.used`); beside the benchmark's fields, the
-    video and its image size."""
+def results_json(vehicles: list[VehicleSpeed], calibration: BrnoCalibration, road_to_image: ProjectiveTransform,
+                 video: str, image_size_px: tuple[int, int]) -> str:
+    """The results file of a video: every vehicle with a speed, its road points as image points (`posX`, `posY`,
+    mapped by `road_to_image`: the pinhole camera the calibration block describes, so that the scorer's projection
+    gives them back) per frame (`frames`), those its speed was measured on (`VehicleSpeed.used`); beside the
+    benchmark's fields, the video and its image size."""
     cars = []
-    for v in vehicles:
-        frames, pixels = v.path.frames[v.used], v.path.points_px[v.used]
+    for v in (v for v in vehicles if v.status == SpeedStatus.MEASURED):
+        frames, points_mm = v.path.frames[v.used], v.path.points_mm[v.used]
+        pixels = road_to_image(points_mm) if len(frames) else np.zeros((0, 2))
         if len(frames):
             cars.append({"id": int(v.track_id), "frames": [int(f) for f in frames],
                          "posX": [float(p[0]) for p in pixels], "posY": [float(p[1]) for p in pixels]})

@@ -19,8 +19,9 @@ MAX_SCALE_POINTS = 400
 
 
 def benchmark_calibration(calibration: CameraCalibration, vehicles: list[VehicleSpeed]) -> BrnoCalibration | str:
-    """The benchmark's calibration block for this camera, its scale fitted where the vehicles were measured (over
-    the image's lower half where none was); the reason as a sentence where the camera cannot be written that way."""
+    """The benchmark's calibration block for this camera (the pinhole camera recovered from its homography), its scale
+    fitted where the vehicles were measured (over the image's lower half where none was); the reason as a sentence
+    where the camera cannot be written that way."""
     if calibration.camera is None:
         return "no pinhole camera can be recovered from the calibration"
     points = np.concatenate([v.path.points_mm for v in vehicles if len(v.path.frames)] or [np.zeros((0, 2))])
@@ -30,7 +31,7 @@ def benchmark_calibration(calibration: CameraCalibration, vehicles: list[Vehicle
         points = calibration.road_to_image.inverse(grid)
     points = points[np.linspace(0, len(points) - 1, min(len(points), MAX_SCALE_POINTS)).astype(int)]
     try:
-        return brno_calibration(calibration.camera, calibration.road_to_image, points)
+        return brno_calibration(calibration.camera, calibration.camera.road_to_image(), points)
     except ValueError as err:
         return str(err)
 
@@ -69,5 +70,6 @@ def write_speed_files(vehicles: list[VehicleSpeed], calibration: CameraCalibrati
     block = benchmark_calibration(calibration, vehicles)
     if isinstance(block, str):
         return f"{len(vehicles)} vehicle(s), {measured} with a speed: {out_dir / 'tracks.csv'} (no {RESULTS_NAME}: {block})"
-    write_text(out_dir / RESULTS_NAME, results_json(vehicles, block, str(video), calibration.image_size_px))
+    write_text(out_dir / RESULTS_NAME, results_json(vehicles, block, calibration.camera.road_to_image(), str(video),
+                                                         calibration.image_size_px))
     return f"{len(vehicles)} vehicle(s), {measured} with a speed: {out_dir / 'tracks.csv'}, {out_dir / RESULTS_NAME}"

@@ -12,7 +12,7 @@ from enum import StrEnum
 import numpy as np
 
 from vehloc.config import check_choice, check_range, params_from_config
-from vehloc.geometry.box_reference import centre_from_box
+from vehloc.geometry.box_reference import box_mismatch, centre_from_box
 from vehloc.geometry.camera_calibration import CameraCalibration
 from vehloc.geometry.motion import path_heading
 from vehloc.geometry.outcome import NotPlaced, ReasonCode
@@ -36,8 +36,10 @@ class SpeedParams:
     min_distance_mm: float
     lane_lines_x_mm: tuple[float, ...] | None
     lane_gap_mm: float
+    max_box_mismatch: float
 
     def __post_init__(self) -> None:
+        check_range("max_box_mismatch", self.max_box_mismatch, 0.0, low_open=True)
         check_choice("reference", self.reference, REFERENCES)
         check_range("min_points", self.min_points, 3)
         check_range("min_distance_mm", self.min_distance_mm, 0.0)
@@ -103,7 +105,8 @@ class VehicleSpeed:
             "speed_kmh": fit.speed_kmh if fit else None, "sigma_kmh": fit.sigma_kmh if fit else None,
             "fit_sigma_kmh": fit.fit_sigma_kmh if fit else None, "scale_sigma_kmh": fit.scale_sigma_kmh if fit else None,
             "heading_deg": fit.heading_deg if fit else None, "distance_m": fit.distance_m if fit else None,
-            "points": len(self.path.frames), "points_dropped": fit.dropped if fit else None, "status": self.status.value,
+            "points": fit.points if fit else len(self.path.frames), "points_dropped": fit.dropped if fit else None,
+            "status": self.status.value,
             "reason_code": failure.code.value if failure else "", "reason": failure.message if failure else "",
         }
 
@@ -159,10 +162,11 @@ class TrackSpeeds:
         if self.params.reference != "box_bottom":
             shape, edge = self.classifier.metadata.shape_of(spec.model_id), self.params.reference.removeprefix("shape_")
             boxes = dict(zip(track.frames, track.boxes))
-            centres = [centre_from_box(self.calibration.camera, shape, boxes[frame], heading.heading_deg, bottom, edge,
-                                       self.box_block_px)
+            camera, heading_deg = self.calibration.camera, heading.heading_deg
+            centres = [centre_from_box(camera, shape, boxes[frame], heading_deg, bottom, edge, self.box_block_px)
                        for frame, bottom in zip(frames, bottoms)]
-            kept = [i for i, centre in enumerate(centres) if not isinstance(centre, NotPlaced)]
+            kept = [i for i, (frame, centre) in enumerate(zip(frames, centres)) if not isinstance(centre, NotPlaced)
+                    and box_mismatch(camera, shape, boxes[frame], centre, heading_deg) <= self.params.max_box_mismatch]
             frames, points = frames[kept], np.array([centres[i] for i in kept]).reshape(-1, 2)
         path = VehiclePath(frames, points, self.calibration.road_to_image(points) if len(points) else np.zeros((0, 2)))
         speed = fit_speed(points, frames / self.fps, self.scale_sigma_fraction(points), self.params.min_points,
