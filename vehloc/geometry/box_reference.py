@@ -53,12 +53,16 @@ def shape_box_size_px(camera: PinholeCamera, shape: VehicleShape, centre_mm: np.
     return np.ptp(pixels, axis=0) if np.all(np.isfinite(pixels)) else np.full(2, np.nan)
 
 
-def box_mismatch(camera: PinholeCamera, shape: VehicleShape, box: Box, centre_mm: np.ndarray, heading_deg: float) -> float:
-    """How far the box's width and height are from the shape's at `centre_mm` (the larger relative difference): a
-    box that holds a neighbour too, or a part of the vehicle only, is far from it."""
+def box_mismatch(camera: PinholeCamera, shape: VehicleShape, box: Box, centre_mm: np.ndarray, heading_deg: float,
+                 block_px: float = 1.0) -> float:
+    """How far the box's width and height are from the shape's at `centre_mm`, beyond the two `block_px` its edges
+    may be off by (the larger, relative to the shape's): a box that holds a neighbour too, or a part of the vehicle
+    only, is far from it."""
     expected = shape_box_size_px(camera, shape, centre_mm, heading_deg)
     observed = np.array([box.width_px, box.height_px], dtype=float)
-    return float(np.max(np.abs(observed / expected - 1.0))) if np.all(expected > 0) else float("inf")
+    if not np.all(expected > 0):
+        return float("inf")
+    return float(np.max(np.clip(np.abs(observed - expected) - 2.0 * block_px, 0.0, None) / expected))
 
 
 def centre_from_box(camera: PinholeCamera, shape: VehicleShape, box: Box, heading_deg: float, start_mm: np.ndarray,

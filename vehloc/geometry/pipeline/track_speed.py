@@ -102,12 +102,13 @@ class VehicleSpeed:
             "first_time_s": self.first_frame / self.fps, "last_time_s": self.last_frame / self.fps, "lane": self.lane,
             "model_id": self.model_id, "make": self.make, "model": self.model, "probability": self.probability,
             **dict(zip(("length_mm", "width_mm", "height_mm"), self.dims_mm or (None, None, None))),
-            "speed_kmh": fit.speed_kmh if fit else None, "sigma_kmh": fit.sigma_kmh if fit else None,
-            "fit_sigma_kmh": fit.fit_sigma_kmh if fit else None, "scale_sigma_kmh": fit.scale_sigma_kmh if fit else None,
-            "heading_deg": fit.heading_deg if fit else None, "distance_m": fit.distance_m if fit else None,
-            "points": fit.points if fit else len(self.path.frames), "points_dropped": fit.dropped if fit else None,
+            **({"speed_kmh": fit.speed_kmh, "sigma_kmh": fit.sigma_kmh, "fit_sigma_kmh": fit.fit_sigma_kmh,
+                "scale_sigma_kmh": fit.scale_sigma_kmh, "heading_deg": fit.heading_deg, "distance_m": fit.distance_m,
+                "points": fit.points, "points_dropped": fit.dropped} if fit is not None else
+               {"speed_kmh": None, "sigma_kmh": None, "fit_sigma_kmh": None, "scale_sigma_kmh": None, "heading_deg": None,
+                "distance_m": None, "points": len(self.path.frames), "points_dropped": None}),
             "status": self.status.value,
-            "reason_code": failure.code.value if failure else "", "reason": failure.message if failure else "",
+            "reason_code": "" if failure is None else failure.code.value, "reason": "" if failure is None else failure.message,
         }
 
     @property
@@ -166,7 +167,8 @@ class TrackSpeeds:
             centres = [centre_from_box(camera, shape, boxes[frame], heading_deg, bottom, edge, self.box_block_px)
                        for frame, bottom in zip(frames, bottoms)]
             kept = [i for i, (frame, centre) in enumerate(zip(frames, centres)) if not isinstance(centre, NotPlaced)
-                    and box_mismatch(camera, shape, boxes[frame], centre, heading_deg) <= self.params.max_box_mismatch]
+                    and box_mismatch(camera, shape, boxes[frame], centre, heading_deg, self.box_block_px)
+                    <= self.params.max_box_mismatch]
             frames, points = frames[kept], np.array([centres[i] for i in kept]).reshape(-1, 2)
         path = VehiclePath(frames, points, self.calibration.road_to_image(points) if len(points) else np.zeros((0, 2)))
         speed = fit_speed(points, frames / self.fps, self.scale_sigma_fraction(points), self.params.min_points,
