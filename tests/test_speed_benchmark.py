@@ -122,7 +122,8 @@ def test_the_results_file_reads_back_to_the_speeds_of_the_tracks(scene, tmp_path
         speed = fit_speed(points, frames / scene.fps, 0.0, 6, 3000.0)
         assert isinstance(speed, SpeedFit)
         vehicles.append(VehicleSpeed(index + 1, int(frames[0]), int(frames[-1]), scene.fps,
-                                     VehiclePath(frames, points, calibration.road_to_image(points)), speed))
+                                     VehiclePath(frames, points, calibration.road_to_image(points),
+                                                                np.zeros((len(frames), 4), int)), speed))
     block = brno_calibration(calibration.camera, calibration.road_to_image, np.concatenate([v.path.points_mm for v in vehicles]))
     path = tmp_path / "system_vehloc.json"
     path.write_text(results_json(vehicles, block, calibration.camera.road_to_image(), "video.avi", (1280, 720)))

@@ -1,7 +1,8 @@
 """The geometry of monocular vehicle localization, as maths on arrays: the projective transform of the road
 plane, the pinhole camera, calibration from lane markers, the background model's vehicle boxes and
 silhouettes, the detectors of the paper's key points (footprint lines, plate, wheels), the box's placement on
-the road, the model fit, a vehicle's path on the road and the estimates' uncertainty.
+the road, the model fit, a vehicle's path on the road, its reference point from its box and model, its speed, the
+speed benchmark's camera model, and the estimates' uncertainty.
 
 It imports no classifier and writes no file: the pipeline above it (`vehloc.geometry.pipeline`) runs it over
 videos with the classifier and writes the results. The names below are its API; the rest of each module is
@@ -10,6 +11,8 @@ its workings."""
 from vehloc.api import lazy_api
 
 __all__, __getattr__ = lazy_api(__name__, {
+    "box_reference": ["box_edge_px", "box_mismatch", "centre_from_box", "shape_edge_px"],
+    "brno": ["BrnoCalibration", "brno_calibration", "focal_and_road_plane", "project_to_metres", "road_plane_points"],
     "calibration": ["Calibration", "CalibrationError", "CalibrationParams", "calibrate", "camera_from_homography"],
     "camera": ["PinholeCamera"],
     "camera_calibration": ["CameraCalibration", "read_calibration"],
@@ -25,6 +28,7 @@ __all__, __getattr__ = lazy_api(__name__, {
     "roi": ["RoiParams", "Silhouette", "VehicleRoiExtractor", "vehicle_silhouette"],
     "silhouette_start": ["silhouette_start_headings_deg"],
     "site": ["Site", "SiteError", "read_site", "site_yaml"],
+    "speed": ["SpeedFit", "fit_speed"],
     "truth": ["CarTruth", "SceneTruth", "SceneTruthError", "read_scene_truth"],
     "uncertainty": ["Uncertainty"],
     "wheels": ["WheelParams", "Wheels", "detect_wheels"],

@@ -26,11 +26,12 @@ NEWTON_STEP_MM = 10.0
 TOLERANCE_MM = 0.5
 
 
-def box_edge_px(box: Box, edge: str, block_px: float = 1.0) -> np.ndarray:
+def box_edge_px(box: Box, edge: str, block_px: float = 1.0, extra_inset_px: float = 0.0) -> np.ndarray:
     """The middle of a box's top or bottom row (px, pixel centres at integers), for a box found on an image shrunk
     `block_px` times (its rows `block_px` pixels high, the vehicle's edge anywhere within the outermost: at its
-    middle on average)."""
-    inset_px = (block_px - 1.0) / 2
+    middle on average), moved `extra_inset_px` further in (a background model that marks a pixel changed when the
+    vehicle covers less than half of it draws the box that much too large)."""
+    inset_px = (block_px - 1.0) / 2 + extra_inset_px
     return np.array([box.centre_px[0], box.y0 + inset_px if edge == "top" else box.y1 - 1.0 - inset_px])
 
 
@@ -66,11 +67,11 @@ def box_mismatch(camera: PinholeCamera, shape: VehicleShape, box: Box, centre_mm
 
 
 def centre_from_box(camera: PinholeCamera, shape: VehicleShape, box: Box, heading_deg: float, start_mm: np.ndarray,
-                    edge: str, block_px: float = 1.0) -> np.ndarray | NotPlaced:
+                    edge: str, block_px: float = 1.0, extra_inset_px: float = 0.0) -> np.ndarray | NotPlaced:
     """The footprint centre (mm) at which the shape, heading `heading_deg`, has `box`'s `edge` middle
     (`box_edge_px`): Newton's method from `start_mm` (the road point under the box's bottom will do), its Jacobian by
     finite differences; a `NotPlaced` when it does not converge."""
-    target = box_edge_px(box, edge, block_px)
+    target = box_edge_px(box, edge, block_px, extra_inset_px)
     centre = np.asarray(start_mm, dtype=float).copy()
     for _ in range(NEWTON_ITERATIONS):
         here = shape_edge_px(camera, shape, centre, heading_deg, edge)

@@ -1,5 +1,6 @@
 """A video's vehicles as files: `tracks.csv` (one row per vehicle), `trajectories.csv` (one row per vehicle per
-frame), `system_vehloc.json` (the speed benchmark's results format) and `speeds.png` (their distribution)."""
+frame), `system_vehloc.json` (the speed benchmark's results format), `speeds.png` (their distribution) and
+`speeds_frame<N>.png` (a few frames with each measured vehicle's box, id and speed)."""
 
 from __future__ import annotations
 
@@ -8,12 +9,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from vehloc.atomic import write_bytes, write_text
+from vehloc.atomic import write_bytes, write_image, write_text
 from vehloc.geometry.brno import BrnoCalibration, brno_calibration
 from vehloc.geometry.camera_calibration import CameraCalibration
 from vehloc.geometry.pipeline.brno_files import RESULTS_NAME, results_json
 from vehloc.geometry.pipeline.track_speed import SpeedStatus, VehicleSpeed
+from vehloc.geometry.pipeline.video import iter_frames
 
+OVERLAY_FRAMES = 4
+"""How many frames are drawn with the vehicles' ids and speeds: those with the most measured vehicles in view."""
 MAX_SCALE_POINTS = 400
 """The road points the benchmark's scale is fitted on: at most this many of the vehicles' path points."""
 
@@ -58,14 +62,69 @@ def speed_plot(vehicles: list[VehicleSpeed], title: str) -> bytes:
     return buffer.getvalue()
 
 
-def write_speed_files(vehicles: list[VehicleSpeed], calibration: CameraCalibration, out_dir: Path, video: str) -> str:
-    """Write the vehicles' files into `out_dir`; a line saying what was written (and why the results file was not,
-    where the camera cannot be written in the benchmark's model)."""
+def overlay_frames(vehicles: list[VehicleSpeed], count: int) -> list[int]:
+    """The `count` frames with the most measured vehicles in view, at least a second apart (25 frames)."""
+    seen: dict[int, int] = {}
+    for vehicle in vehicles:
+        if vehicle.status == SpeedStatus.MEASURED:
+            for frame in vehicle.path.frames[vehicle.used]:
+                seen[int(frame)] = seen.get(int(frame), 0) + 1
+    chosen: list[int] = []
+    for frame in sorted(seen, key=lambda f: (-seen[f], f)):
+        if all(abs(frame - other) >= 25 for other in chosen):
+            chosen.append(frame)
+        if len(chosen) == count:
+            break
+    return sorted(chosen)
+
+
+def draw_speeds(frame_bgr: np.ndarray, frame: int, vehicles: list[VehicleSpeed]) -> np.ndarray:
+    """The frame with each measured vehicle in view boxed and labelled with its track id and speed."""
+    import cv2
+
+    image = frame_bgr.copy()
+    scale = max(0.35, image.shape[0] / 1440)
+    for vehicle in vehicles:
+        if vehicle.status != SpeedStatus.MEASURED:
+            continue
+        at = np.flatnonzero(vehicle.path.frames == frame)
+        if not len(at):
+            continue
+        x0, y0, x1, y1 = (int(v) for v in vehicle.path.boxes_px[at[0]])
+        cv2.rectangle(image, (x0, y0), (x1 - 1, y1 - 1), (40, 200, 255), max(1, round(2 * scale)))
+        label = f"{vehicle.track_id}: {vehicle.speed.speed_kmh:.0f} km/h"
+        cv2.putText(image, label, (x0, max(10, y0 - 4)), cv2.FONT_HERSHEY_SIMPLEX, scale, (0, 0, 0),
+                    max(2, round(4 * scale)), cv2.LINE_AA)
+        cv2.putText(image, label, (x0, max(10, y0 - 4)), cv2.FONT_HERSHEY_SIMPLEX, scale, (40, 200, 255),
+                    max(1, round(1.5 * scale)), cv2.LINE_AA)
+    return image
+
+
+def write_overlays(video: str | Path, vehicles: list[VehicleSpeed], out_dir: Path, count: int = OVERLAY_FRAMES) -> list[Path]:
+    """`speeds_frame<N>.png` for the frames of `overlay_frames`, read again from the video."""
+    wanted, written = overlay_frames(vehicles, count), []
+    if not wanted:
+        return written
+    for index, frame_bgr in enumerate(iter_frames(video)):
+        if index in wanted:
+            written.append(write_image(out_dir / f"speeds_frame{index}.png", draw_speeds(frame_bgr, index, vehicles)))
+        if index >= wanted[-1]:
+            break
+    return written
+
+
+def write_speed_files(vehicles: list[VehicleSpeed], calibration: CameraCalibration, out_dir: Path, video: str,
+                      overlays: bool = True) -> str:
+    """Write the vehicles' files into `out_dir` (the frames with their speeds drawn, read again from `video`, with
+    `overlays`); a line saying what was written (and why the results file was not, where the camera cannot be written
+    in the benchmark's model)."""
     write_text(out_dir / "tracks.csv", pd.DataFrame([v.row() for v in vehicles]).to_csv(index=False, float_format="%.3f"))
     rows = [row for v in vehicles for row in v.trajectory_rows()]
     columns = ["track_id", "frame", "time_s", "x_mm", "y_mm", "x_px", "y_px", "used"]
     write_text(out_dir / "trajectories.csv", pd.DataFrame(rows, columns=columns).to_csv(index=False, float_format="%.3f"))
     write_bytes(out_dir / "speeds.png", speed_plot(vehicles, Path(video).name))
+    if overlays:
+        write_overlays(video, vehicles, out_dir)
     measured = sum(v.status == SpeedStatus.MEASURED for v in vehicles)
     block = benchmark_calibration(calibration, vehicles)
     if isinstance(block, str):

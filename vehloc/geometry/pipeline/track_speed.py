@@ -37,8 +37,10 @@ class SpeedParams:
     lane_lines_x_mm: tuple[float, ...] | None
     lane_gap_mm: float
     max_box_mismatch: float
+    edge_inset_px: float
 
     def __post_init__(self) -> None:
+        check_range("edge_inset_px", self.edge_inset_px, -2.0, 2.0)
         check_range("max_box_mismatch", self.max_box_mismatch, 0.0, low_open=True)
         check_choice("reference", self.reference, REFERENCES)
         check_range("min_points", self.min_points, 3)
@@ -60,11 +62,13 @@ class SpeedStatus(StrEnum):
 
 @dataclass(frozen=True)
 class VehiclePath:
-    """A vehicle's reference points: the frames, the road points (N, 2) mm and their pixels (N, 2)."""
+    """A vehicle's reference points: the frames, the road points (N, 2) mm, their pixels (N, 2) and the vehicle's box
+    at each (N, 4: x0, y0, x1, y1 px, exclusive)."""
 
     frames: np.ndarray
     points_mm: np.ndarray
     points_px: np.ndarray
+    boxes_px: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -141,7 +145,7 @@ class TrackSpeeds:
         """The vehicle of a finished track."""
         frames = np.array(track.ground_frames, dtype=int)
         bottoms = np.array(track.ground_points_mm, dtype=float).reshape(-1, 2)
-        empty = VehiclePath(np.zeros(0, int), np.zeros((0, 2)), np.zeros((0, 2)))
+        empty = VehiclePath(np.zeros(0, int), np.zeros((0, 2)), np.zeros((0, 2)), np.zeros((0, 4), int))
         vehicle = VehicleSpeed(track.track_id, track.frames[0], track.last_frame, self.fps, empty,
                                NotPlaced(ReasonCode.TOUCHES_EDGE, "the frame's edge cut it in every frame"))
         if track.votes.empty:
@@ -160,17 +164,18 @@ class TrackSpeeds:
             return replace(vehicle, speed=NotPlaced(ReasonCode.PATH_TOO_SHORT,
                                                     "its path is too short to tell its direction"))
         points = bottoms
+        boxes = dict(zip(track.frames, track.boxes))
         if self.params.reference != "box_bottom":
             shape, edge = self.classifier.metadata.shape_of(spec.model_id), self.params.reference.removeprefix("shape_")
-            boxes = dict(zip(track.frames, track.boxes))
             camera, heading_deg = self.calibration.camera, heading.heading_deg
-            centres = [centre_from_box(camera, shape, boxes[frame], heading_deg, bottom, edge, self.box_block_px)
-                       for frame, bottom in zip(frames, bottoms)]
+            centres = [centre_from_box(camera, shape, boxes[frame], heading_deg, bottom, edge, self.box_block_px,
+                                       self.params.edge_inset_px) for frame, bottom in zip(frames, bottoms)]
             kept = [i for i, (frame, centre) in enumerate(zip(frames, centres)) if not isinstance(centre, NotPlaced)
                     and box_mismatch(camera, shape, boxes[frame], centre, heading_deg, self.box_block_px)
                     <= self.params.max_box_mismatch]
             frames, points = frames[kept], np.array([centres[i] for i in kept]).reshape(-1, 2)
-        path = VehiclePath(frames, points, self.calibration.road_to_image(points) if len(points) else np.zeros((0, 2)))
+        path = VehiclePath(frames, points, self.calibration.road_to_image(points) if len(points) else np.zeros((0, 2)),
+                           np.array([[b.x0, b.y0, b.x1, b.y1] for b in (boxes[f] for f in frames)], int).reshape(-1, 4))
         speed = fit_speed(points, frames / self.fps, self.scale_sigma_fraction(points), self.params.min_points,
                           self.params.min_distance_mm)
         return replace(vehicle, path=path, speed=speed)
