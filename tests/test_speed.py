@@ -111,3 +111,21 @@ def test_a_camera_looking_square_down_the_road_cannot_be_written_in_the_benchmar
     square = PinholeCamera.look_at((0.0, -4000.0, 9000.0), (0.0, 24000.0, 0.0), 1100.0, 1280, 720, 0.0)
     with pytest.raises(ValueError, match="vanishing point is at infinity"):
         brno_calibration(square, square.road_to_image(), np.array([[0.0, 10000.0], [0.0, 20000.0]]))
+
+
+def _vehicle(track_id: int, lateral_mm: float):
+    from vehloc.geometry.pipeline.track_speed import VehiclePath, VehicleSpeed
+
+    points = np.column_stack([np.full(5, lateral_mm), np.linspace(40000.0, 10000.0, 5)])
+    return VehicleSpeed(track_id, 0, 4, FPS, VehiclePath(np.arange(5), points, points, np.zeros((5, 4), int)),
+                        NotPlaced(ReasonCode.PATH_TOO_SHORT, "unused"))
+
+
+def test_lanes_come_from_the_sites_lines_or_from_the_paths_clusters() -> None:
+    from vehloc.geometry.pipeline.track_speed import SpeedParams, assign_lanes
+
+    vehicles = [_vehicle(i, x) for i, x in enumerate([-3600.0, 150.0, -3300.0, 3400.0, 9000.0, -200.0])]
+    lines = SpeedParams.from_config(lane_lines_x_mm=[-5250.0, -1750.0, 1750.0, 5250.0])
+    assert [v.lane for v in assign_lanes(vehicles, lines)] == [0, 1, 0, 2, None, 1]  # 9 m across: off the road
+    clustered = SpeedParams.from_config(lane_gap_mm=1500.0)
+    assert [v.lane for v in assign_lanes(vehicles, clustered)] == [0, 1, 0, 2, 3, 1]

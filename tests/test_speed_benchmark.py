@@ -126,7 +126,7 @@ def test_the_results_file_reads_back_to_the_speeds_of_the_tracks(scene, tmp_path
                                                                 np.zeros((len(frames), 4), int)), speed))
     block = brno_calibration(calibration.camera, calibration.road_to_image, np.concatenate([v.path.points_mm for v in vehicles]))
     path = tmp_path / "system_vehloc.json"
-    path.write_text(results_json(vehicles, block, calibration.camera.road_to_image(), "video.avi", (1280, 720)))
+    path.write_text(results_json(vehicles, block, calibration.camera.road_to_image(), "video.avi", (1280, 720), 25.0))
     results = read_results(path)
     for vehicle, car in zip(vehicles, results.cars):
         metres = project_to_metres(car.points_px, results.calibration)
@@ -162,6 +162,10 @@ def test_the_scorer_refuses_another_frame_rate_and_another_video_in_one_line(sce
     results.write_text(results.read_text().replace('"other.avi"', '"video.avi"'))
     fps = run_cli("vehloc-speed-eval", results, truth_file, "--out", tmp_path / "score", "--fps", "30")
     assert_one_error(fps, "vehloc-speed-eval", "fps is 25", "the video's is 30")
+    results.write_text(results.read_text().replace('"video": "video.avi"', '"video": "video.avi", "fps": 50.0'))
+    stated = run_cli("vehloc-speed-eval", results, truth_file, "--out", tmp_path / "score")  # the results file's own
+    assert_one_error(stated, "vehloc-speed-eval", "fps is 25", "the video's is 50")
+    results.write_text(results.read_text().replace('"fps": 50.0', '"fps": 25.0'))
     scored = run_cli("vehloc-speed-eval", results, truth_file, "--out", tmp_path / "score")
     assert scored.returncode == 0, scored.stderr[-2000:]
     assert "recall 1.000, precision 1.000" in scored.stdout

@@ -39,7 +39,7 @@ def run(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     assert calibrated.returncode == 0, calibrated.stderr[-2000:]
     localizer = Localizer(TrueModelClassifier(MODEL_ID), read_calibration(folder / "calibration" / "calibration.json"),
                           LocalizeSettings.compose(["experiment=traffic"]))
-    localize_video(localizer, scene / "video.avi", folder / "run", pictures=False, progress=False)
+    localize_video(localizer, scene / "video.avi", folder / "run", pictures=True, progress=False)
     return {"scene": scene, "run": folder / "run"}
 
 
@@ -73,3 +73,18 @@ def test_the_files_hold_one_row_per_vehicle_and_one_per_vehicle_and_frame(run: d
     assert set(measured["lane"]) <= {0, 1, 2}
     assert (trajectories.groupby("track_id")["used"].sum().loc[measured["track_id"]].values == measured["points"].values).all()
     assert (measured["sigma_kmh"] > 0).all() and (run["run"] / "speeds.png").stat().st_size > 0
+
+
+def test_a_few_frames_show_each_vehicle_with_its_id_and_speed(run: dict[str, Path]) -> None:
+    import cv2
+
+    pictures = sorted(run["run"].glob("speeds_frame*.png"))
+    assert 1 <= len(pictures) <= 4
+    frames = [int(p.stem.removeprefix("speeds_frame")) for p in pictures]
+    trajectories = pd.read_csv(run["run"] / "trajectories.csv")
+    tracks = pd.read_csv(run["run"] / "tracks.csv")
+    measured = trajectories["track_id"].isin(tracks.loc[tracks["status"] == "measured", "track_id"])
+    busiest = trajectories[measured & trajectories["used"]].groupby("frame").size()
+    assert busiest.loc[frames[0]] >= 1 and max(busiest.loc[f] for f in frames) == busiest.max()
+    image = cv2.imread(str(pictures[0]))
+    assert image.shape == (720, 1280, 3)

@@ -65,8 +65,10 @@ class TrafficSpec:
 
 
 def traffic_cars(traffic: TrafficSpec, fps: float) -> tuple[CarSpec, ...]:
-    """The cars of the traffic, in order of entry, each entering `delay_frames` after the scene's empty frames."""
-    rng = np.random.default_rng(traffic.seed)
+    """The cars of the traffic, in order of entry, each entering `delay_frames` after the scene's empty frames. The
+    models and paints are drawn from a stream of their own: the same seed gives the same arrivals, lanes and speeds
+    whatever `model_ids` allows."""
+    rng, looks = np.random.default_rng(traffic.seed), np.random.default_rng([traffic.seed, 1])
     models = [m for m in CATALOG if traffic.model_ids is None or m.model_id in traffic.model_ids]
     mean_gap_s = 60.0 * len(traffic.lanes) / traffic.vehicles_per_minute
     stretch_m = 2.0 * traffic.approach_mm / 1000.0
@@ -79,11 +81,11 @@ def traffic_cars(traffic: TrafficSpec, fps: float) -> tuple[CarSpec, ...]:
             if exit_s < ahead_exit_s + traffic.min_headway_s:  # it would catch up: it enters later
                 time_s += ahead_exit_s + traffic.min_headway_s - exit_s
                 exit_s = ahead_exit_s + traffic.min_headway_s
-            model = models[int(rng.integers(len(models)))]
+            model = models[int(looks.integers(len(models)))]
             x_mm = lane.x_mm + float(rng.uniform(-1.0, 1.0)) * traffic.lateral_jitter_mm
-            car = CarSpec(model.model_id, int(rng.integers(len(model.palette))), x_mm,
+            car = CarSpec(model.model_id, int(looks.integers(len(model.palette))), x_mm,
                           traffic.centre_y_mm, lane.heading_deg, traffic.approach_mm, stops=False,
-                          delay_frames=int(round(time_s * fps)), plates=bool(rng.random() < traffic.plates_fraction),
+                          delay_frames=int(round(time_s * fps)), plates=bool(looks.random() < traffic.plates_fraction),
                           speed_kmh=round(speed_kmh, 2))
             cars.append((car.delay_frames, car))
             ahead_exit_s = exit_s

@@ -44,6 +44,7 @@ class BrnoResults:
     cars: tuple[BrnoCar, ...]
     video: str | None = None
     image_size_px: tuple[int, int] | None = None
+    fps: float | None = None
 
 
 @dataclass(frozen=True)
@@ -84,11 +85,11 @@ class GroundTruth:
 
 
 def results_json(vehicles: list[VehicleSpeed], calibration: BrnoCalibration, road_to_image: ProjectiveTransform,
-                 video: str, image_size_px: tuple[int, int]) -> str:
+                 video: str, image_size_px: tuple[int, int], fps: float) -> str:
     """The results file of a video: every vehicle with a speed, its road points as image points (`posX`, `posY`,
     mapped by `road_to_image`: the pinhole camera the calibration block describes, so that the scorer's projection
     gives them back) per frame (`frames`), those its speed was measured on (`VehicleSpeed.used`); beside the
-    benchmark's fields, the video and its image size."""
+    benchmark's fields, the video, its image size and frame rate."""
     cars = []
     for v in (v for v in vehicles if v.status == SpeedStatus.MEASURED):
         frames, points_mm = v.path.frames[v.used], v.path.points_mm[v.used]
@@ -97,7 +98,7 @@ def results_json(vehicles: list[VehicleSpeed], calibration: BrnoCalibration, roa
             cars.append({"id": int(v.track_id), "frames": [int(f) for f in frames],
                          "posX": [float(p[0]) for p in pixels], "posY": [float(p[1]) for p in pixels]})
     return json.dumps({"camera_calibration": calibration.to_json(), "cars": cars, "video": video,
-                       "image_size_px": list(image_size_px)}) + "\n"
+                       "image_size_px": list(image_size_px), "fps": fps}) + "\n"
 
 
 def _load(path: Path, what: str) -> Any:
@@ -178,5 +179,6 @@ def read_results(path: str | Path) -> BrnoResults:
             raise BrnoFileError(f"{path}: {where}frames, posX and posY must be lists of one length")
         cars.append(BrnoCar(int(_field(car, "id", where, path)), np.asarray(frames, dtype=float),
                             np.column_stack([np.asarray(xs, dtype=float), np.asarray(ys, dtype=float)]).reshape(-1, 2)))
-    size = raw.get("image_size_px")
-    return BrnoResults(calibration, tuple(cars), raw.get("video"), tuple(int(v) for v in size) if size else None)
+    size, fps = raw.get("image_size_px"), raw.get("fps")
+    return BrnoResults(calibration, tuple(cars), raw.get("video"), tuple(int(v) for v in size) if size else None,
+                       float(fps) if fps else None)

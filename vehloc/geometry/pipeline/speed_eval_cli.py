@@ -30,13 +30,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, required=True, help="the folder to write the score into")
     parser.add_argument("--mode", choices=MODES, default="median",
                         help="a car's speed: the median over 5-frame steps (the benchmark's default) or between the lines")
-    parser.add_argument("--fps", type=float, default=None, help="the video's frame rate, checked against the truth's")
+    parser.add_argument("--fps", type=float, default=None,
+                        help="the video's frame rate, checked against the truth's (default: the results file's, if given)")
     args = parser.parse_args(argv)
     truth = read_ground_truth(args.truth)
     results = read_results(args.results)
     check_same_video(args.results, results.video, args.truth, truth.video)
-    if args.fps is not None and abs(args.fps - truth.fps) > FPS_TOLERANCE:
-        raise BrnoFileError(f"{args.truth}: fps is {truth.fps:g}, the video's is {args.fps:g}")
+    fps = args.fps if args.fps is not None else results.fps
+    if fps is not None and abs(fps - truth.fps) > FPS_TOLERANCE:
+        raise BrnoFileError(f"{args.truth}: fps is {truth.fps:g}, the video's is {fps:g}")
     out_dir = check_output_dir(args.out, "--out")
     try:
         score = score_speeds(results, truth, results.image_size_px or BENCHMARK_SIZE_PX, args.mode)

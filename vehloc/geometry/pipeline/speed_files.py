@@ -114,7 +114,7 @@ def write_overlays(video: str | Path, vehicles: list[VehicleSpeed], out_dir: Pat
 
 
 def write_speed_files(vehicles: list[VehicleSpeed], calibration: CameraCalibration, out_dir: Path, video: str,
-                      overlays: bool = True) -> str:
+                      fps: float, overlays: bool = True) -> str:
     """Write the vehicles' files into `out_dir` (the frames with their speeds drawn, read again from `video`, with
     `overlays`); a line saying what was written (and why the results file was not, where the camera cannot be written
     in the benchmark's model)."""
@@ -130,5 +130,5 @@ def write_speed_files(vehicles: list[VehicleSpeed], calibration: CameraCalibrati
     if isinstance(block, str):
         return f"{len(vehicles)} vehicle(s), {measured} with a speed: {out_dir / 'tracks.csv'} (no {RESULTS_NAME}: {block})"
     write_text(out_dir / RESULTS_NAME, results_json(vehicles, block, calibration.camera.road_to_image(), str(video),
-                                                         calibration.image_size_px))
+                                                         calibration.image_size_px, fps))
     return f"{len(vehicles)} vehicle(s), {measured} with a speed: {out_dir / 'tracks.csv'}, {out_dir / RESULTS_NAME}"

@@ -87,7 +87,7 @@ def localize_video(localizer: Localizer, video: str | Path, out_dir: Path, truth
     summary = ""
     if localizer.speed_params.enabled:
         vehicles = assign_lanes(sorted(vehicles, key=lambda v: v.track_id), localizer.speed_params)
-        summary = write_speed_files(vehicles, localizer.calibration, out_dir, str(video), pictures)
+        summary = write_speed_files(vehicles, localizer.calibration, out_dir, str(video), info.fps, pictures)
     table = None
     if truth is not None:
         table = pd.DataFrame(table2_rows(truth, records))
