@@ -25,6 +25,8 @@ from vehloc.geometry.pipeline.localize import Localizer, Status, VehicleRecord
 from vehloc.geometry.pipeline.settings import LocalizeSettings
 from vehloc.geometry.camera_calibration import read_calibration
 from vehloc.geometry.pipeline.video import iter_frames
+from vehloc.geometry.pipeline.speed_files import write_overlays
+from vehloc.geometry.pipeline.track_speed import SpeedStatus
 from vehloc.geometry.pipeline.video_localization import localize_video
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.tables import markdown_table
@@ -95,6 +97,10 @@ def main() -> None:
     table = checks(records, left_curb_x_mm)
     write_text(args.out / "checks.csv", table.to_csv(index=False))
     shown = overlay(list(run.records), localizer, args.out / "overlay.png")
+    speed_frames = write_overlays(VIDEO, list(run.vehicles), args.out)
+    measured = [v for v in run.vehicles if v.status == SpeedStatus.MEASURED]
+    speeds = np.array([v.speed.speed_kmh for v in measured])
+    sigmas = np.array([v.speed.sigma_kmh for v in measured])
     reasons = records[records.status != Status.LOCALIZED].groupby("reason_code")["reason"].agg(["size", "first"])
     lines = [
         "# Real video: every car localized frame by frame",
@@ -110,6 +116,18 @@ def main() -> None:
         *(f"- {row['size']} x `{code}` ({row['first']})" for code, row in reasons.sort_values("size", ascending=False).iterrows()),
         "",
         f"![overlay](overlay.png) frames {', '.join(map(str, shown))}: paper's method green, model fit blue.",
+        "",
+        f"Speeds (`tracks.csv`): {len(run.vehicles)} vehicles tracked, {len(measured)} with a speed"
+        + (f": median {np.median(speeds):.1f} km/h (5th-95th percentile {np.percentile(speeds, 5):.1f}-"
+           f"{np.percentile(speeds, 95):.1f}), median 1-sigma {np.median(sigmas):.1f} km/h" if len(measured) else "")
+        + "; the others by reason code: "
+        + ", ".join(f"{n} x `{code}`" for code, n in pd.Series([v.speed.code.value for v in run.vehicles
+                                                              if v.status != SpeedStatus.MEASURED]).value_counts().items())
+        + ".",
+        "",
+        "![speeds](speeds.png)",
+        "",
+        *(f"![frame {p.stem}]({p.name})" for p in speed_frames),
     ]
     write_text(args.out / "report.md", "\n".join(lines) + "\n")
     print("\n".join(lines))
