@@ -59,6 +59,8 @@ CLI_CASES = {
     "unknown_key": (["roi.nope=1"], "roi.nope"),
     "no_frames": (["max_frames=0"], "max_frames"),
     "never_lost": (["tracker.max_lost_frames=0"], "tracker.max_lost_frames"),
+    "no_fps": (["fps=0"], "fps"),
+    "speed_reference": (["speed.reference=wheels"], "speed.reference"),
     "unknown_experiment": (["experiment=nope"], "experiment/nope"),
     "no_video": (["calibration=c.json", "model=m.onnx"], "video=PATH is required"),
 }

@@ -37,10 +37,13 @@ class LocalizeParams:
     truth: str | None
     max_frames: int | None
     annotate: bool
+    fps: float | None
 
     def __post_init__(self) -> None:
         if self.max_frames is not None:
             check_range("max_frames", self.max_frames, 1)
+        if self.fps is not None:
+            check_range("fps", self.fps, 0.0, 1000.0, low_open=True)
 
 
 @exit_on_error("vehloc-localize")
@@ -55,7 +58,7 @@ def _run(cfg: DictConfig) -> None:
     calibration = read_calibration(params.calibration)
     localizer = Localizer(VehicleClassifier.from_onnx(params.model), calibration, settings)
     truth = read_scene_truth(params.truth) if params.truth else None
-    run = localize_video(localizer, params.video, out_dir, truth, params.max_frames, params.annotate)
+    run = localize_video(localizer, params.video, out_dir, truth, params.max_frames, params.annotate, fps=params.fps)
     if not run.records:
         every = localizer.params.every_frame
         print(f"no vehicle {'in view' if every else 'stopped'} in {params.video}: empty records in {out_dir}")

@@ -5,7 +5,7 @@ What `vehloc-localize` and `vehloc-demo` run."""
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import cv2
@@ -58,10 +58,15 @@ def annotate(frame_bgr: np.ndarray, record: VehicleRecord, localizer: Localizer,
 
 
 def localize_video(localizer: Localizer, video: str | Path, out_dir: Path, truth: SceneTruth | None = None,
-                   max_frames: int | None = None, pictures: bool = True, progress: bool = True) -> VideoLocalization:
+                   max_frames: int | None = None, pictures: bool = True, progress: bool = True,
+                   fps: float | None = None) -> VideoLocalization:
     """Run `localizer` over `video` (its first `max_frames` frames) and write the records into `out_dir`; a
-    picture per localized vehicle with `pictures`; Table 2 and its bird's-eye figures with `truth`."""
+    picture per localized vehicle with `pictures`; Table 2 and its bird's-eye figures with `truth`. The speeds are
+    at `fps` frames a second where given (a video whose container states another rate than it was filmed at), else
+    at the container's rate."""
     info = video_info(video)
+    if fps is not None:
+        info = replace(info, fps=fps)
     localizer.calibration.check_image_size(info.width_px, info.height_px, str(video))
     out_dir.mkdir(parents=True, exist_ok=True)
     total = info.frame_count if max_frames is None else min(info.frame_count, max_frames)
