@@ -76,13 +76,13 @@ def run(scene: str, video: Path, calibration_path: Path, classifier: VehicleClas
     started = time.perf_counter()
     for frame_index, frame in enumerate(iter_frames(video)):
         localizer.process(frame_index, frame)
-        vehicles.extend(speeds.measure(track) for track in localizer.take_finished())
+        vehicles.extend(speeds.measure(track) for track in localizer.removed)
         if (frame_index + 1) % every == 0:
             rows.append({"video": scene, "frame": frame_index + 1, "video_s": (frame_index + 1) / info.fps,
                          "elapsed_s": time.perf_counter() - started, "rss_mib": resident_mib(),
                          "tracks_held": len(localizer.tracker.tracks), "vehicles": len(vehicles),
                          "measured": sum(v.status == SpeedStatus.MEASURED for v in vehicles)})
-    vehicles.extend(speeds.measure(track) for track in localizer.take_finished(end_of_video=True))
+    vehicles.extend(speeds.measure(track) for track in localizer.finish())
     samples = pd.DataFrame(rows)
     print(f"{scene}: {info.frame_count} frames in {time.perf_counter() - started:.0f} s, {len(vehicles)} vehicles",
           flush=True)

@@ -156,7 +156,7 @@ class Localizer:
         self.fit_params = settings.fit
         self.speed_params = settings.speed
         self.clock = clock or StageClock()
-        self.finished: list[VehicleTrack] = []
+        self.removed: list[VehicleTrack] = []
 
     def process(self, frame_index: int, frame_bgr: np.ndarray) -> list[VehicleRecord]:
         """Feed one frame; the records of the vehicles localized at it."""
@@ -166,8 +166,7 @@ class Localizer:
             boxes = self.extractor.apply(frame_bgr)
         with self.clock.stage("tracking"):
             update = self.tracker.update(boxes, frame_index)
-            if self.speed_params.enabled:
-                self.finished.extend(update.removed)
+            self.removed = update.removed
             for track in update.seen:
                 cut = track.box.touches_border(width_px, height_px, self.params.border_margin_px)
                 if not (cut and track.votes.policy == "largest"):  # a cut view is large, not the best
@@ -179,14 +178,11 @@ class Localizer:
         due = update.seen if self.params.every_frame else update.stopped
         return [self.localize(track, frame_index, frame_bgr) for track in due]
 
-    def take_finished(self, end_of_video: bool = False) -> list[VehicleTrack]:
-        """The tracks removed since the last call (with `speed.enabled`), for their speeds; at the end of the video,
-        every track still held too."""
-        if end_of_video and self.speed_params.enabled:
-            self.finished.extend(self.tracker.tracks)
-            self.tracker.tracks = []
-        finished, self.finished = self.finished, []
-        return finished
+    def finish(self) -> list[VehicleTrack]:
+        """The end of the video: every track still held, removed (`removed` holds, after each frame, the tracks that
+        frame removed)."""
+        self.removed, self.tracker.tracks = self.tracker.tracks, []
+        return self.removed
 
     def travel(self, track: VehicleTrack, frame_index: int) -> Travel:
         """The track's travel at this frame (`track_travel`): moving when `heading_from_motion` is on and the tracker

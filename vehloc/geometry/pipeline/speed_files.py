@@ -44,13 +44,11 @@ def speed_plot(vehicles: list[VehicleSpeed], title: str) -> bytes:
     """A histogram of the measured speeds, with the vehicles not measured counted in the legend."""
     import io
 
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     speeds = [v.speed.speed_kmh for v in vehicles if v.status == SpeedStatus.MEASURED]
-    figure, axis = plt.subplots(figsize=(6.4, 3.6), dpi=120)
+    figure = Figure(figsize=(6.4, 3.6), dpi=120)
+    axis = figure.subplots()
     axis.hist(speeds, bins=np.arange(0.0, max(speeds + [60.0]) + 10.0, 5.0), color="#3870a8", edgecolor="white")
     axis.set_xlabel("speed (km/h)")
     axis.set_ylabel("vehicles")
@@ -58,7 +56,6 @@ def speed_plot(vehicles: list[VehicleSpeed], title: str) -> bytes:
     figure.tight_layout()
     buffer = io.BytesIO()
     figure.savefig(buffer, format="png")
-    plt.close(figure)
     return buffer.getvalue()
 
 
@@ -78,25 +75,31 @@ def overlay_frames(vehicles: list[VehicleSpeed], count: int) -> list[int]:
     return sorted(chosen)
 
 
+OVERLAY_MIN_WIDTH_PX = 960
+"""A frame narrower than this is enlarged (by a whole factor) before its labels are drawn, so that they can be read."""
+
+
 def draw_speeds(frame_bgr: np.ndarray, frame: int, vehicles: list[VehicleSpeed]) -> np.ndarray:
-    """The frame with each measured vehicle in view boxed and labelled with its track id and speed."""
+    """The frame with each measured vehicle in view boxed and labelled with its track id and speed (a small frame
+    enlarged first)."""
     import cv2
 
-    image = frame_bgr.copy()
-    scale = max(0.35, image.shape[0] / 1440)
+    factor = max(1, int(np.ceil(OVERLAY_MIN_WIDTH_PX / frame_bgr.shape[1])))
+    image = cv2.resize(frame_bgr, None, fx=factor, fy=factor, interpolation=cv2.INTER_LINEAR) if factor > 1 else frame_bgr.copy()
+    scale = max(0.5, image.shape[0] / 1440)
     for vehicle in vehicles:
         if vehicle.status != SpeedStatus.MEASURED:
             continue
         at = np.flatnonzero(vehicle.path.frames == frame)
         if not len(at):
             continue
-        x0, y0, x1, y1 = (int(v) for v in vehicle.path.boxes_px[at[0]])
+        x0, y0, x1, y1 = (int(v) * factor for v in vehicle.path.boxes_px[at[0]])
         cv2.rectangle(image, (x0, y0), (x1 - 1, y1 - 1), (40, 200, 255), max(1, round(2 * scale)))
         label = f"{vehicle.track_id}: {vehicle.speed.speed_kmh:.0f} km/h"
-        cv2.putText(image, label, (x0, max(10, y0 - 4)), cv2.FONT_HERSHEY_SIMPLEX, scale, (0, 0, 0),
-                    max(2, round(4 * scale)), cv2.LINE_AA)
-        cv2.putText(image, label, (x0, max(10, y0 - 4)), cv2.FONT_HERSHEY_SIMPLEX, scale, (40, 200, 255),
-                    max(1, round(1.5 * scale)), cv2.LINE_AA)
+        origin = (x0, max(12, y0 - 5))
+        cv2.putText(image, label, origin, cv2.FONT_HERSHEY_SIMPLEX, scale, (0, 0, 0), max(2, round(4 * scale)), cv2.LINE_AA)
+        cv2.putText(image, label, origin, cv2.FONT_HERSHEY_SIMPLEX, scale, (40, 200, 255), max(1, round(1.5 * scale)),
+                    cv2.LINE_AA)
     return image
 
 

@@ -44,14 +44,12 @@ def summary_markdown(summary: dict[str, float], title: str) -> str:
 
 
 def score_plot(score: SpeedScore, title: str) -> bytes:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     matched = [m for m in score.matches if m.speed_kmh is not None and m.valid]
     errors = np.array([m.error_kmh for m in matched])
-    figure, (left, right) = plt.subplots(1, 2, figsize=(10, 4), dpi=110)
+    figure = Figure(figsize=(10, 4), dpi=110)
+    left, right = figure.subplots(1, 2)
     if len(errors):
         limit = max(1.0, float(np.max(np.abs(errors))))
         left.hist(errors, bins=np.linspace(-limit, limit, 31), color="#3870a8", edgecolor="white")
@@ -69,7 +67,6 @@ def score_plot(score: SpeedScore, title: str) -> bytes:
     figure.tight_layout()
     buffer = io.BytesIO()
     figure.savefig(buffer, format="png")
-    plt.close(figure)
     return buffer.getvalue()
 
 

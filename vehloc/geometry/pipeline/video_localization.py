@@ -84,8 +84,10 @@ def localize_video(localizer: Localizer, video: str | Path, out_dir: Path, truth
             records.append(record)
             if pictures and record.status == Status.LOCALIZED:
                 annotate(frame, record, localizer, out_dir)
-        vehicles.extend(speeds.measure(track) for track in localizer.take_finished())
-    vehicles.extend(speeds.measure(track) for track in localizer.take_finished(end_of_video=True))
+        if localizer.speed_params.enabled:
+            vehicles.extend(speeds.measure(track) for track in localizer.removed)
+    if localizer.speed_params.enabled:
+        vehicles.extend(speeds.measure(track) for track in localizer.finish())
     rows = [row for record in records for row in record.rows()]
     write_text(out_dir / "records.csv", pd.DataFrame(rows).to_csv(index=False, float_format="%.2f"))
     write_text(out_dir / "records.json", records_json(records))
