@@ -58,7 +58,7 @@ def test_the_sigma_has_the_fit_and_the_scale_in_it() -> None:
     assert noisy.fit_sigma_kmh == pytest.approx(expected, rel=0.3)
 
 
-@pytest.mark.parametrize(("frames", "speed_kmh", "why"), [(4, 100.0, "usable point"), (30, 2.0, "moved")])
+@pytest.mark.parametrize(("frames", "speed_kmh", "why"), [(4, 100.0, "usable point"), (30, 2.0, "steady motion covers")])
 def test_a_short_path_is_a_reason_not_a_speed(frames: int, speed_kmh: float, why: str) -> None:
     points, times = _path(speed_kmh, frames)
     result = fit_speed(points, times, 0.0, 6, 3000.0)

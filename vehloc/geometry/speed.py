@@ -83,7 +83,8 @@ def fit_speed(points_mm: np.ndarray, times_s: np.ndarray, scale_sigma_fraction: 
     distance_mm = float(np.linalg.norm(velocity_mm_s)) * duration_s
     if distance_mm < min_distance_mm:
         return NotPlaced(ReasonCode.PATH_TOO_SHORT,
-                         f"it moved {distance_mm / 1000:.1f} m while in view, less than {min_distance_mm / 1000:.1f} m")
+                         f"its steady motion covers {distance_mm / 1000:.1f} m over the {len(points)} points that fit it, "
+                         f"less than {min_distance_mm / 1000:.1f} m (a vehicle that stops has no single speed)")
     residuals = centred - np.outer(centred_t, velocity_mm_s)
     residual_mm = float(np.sqrt(np.sum(residuals**2) / (2 * len(points) - 4))) if len(points) > 2 else 0.0
     speed_kmh = float(np.linalg.norm(velocity_mm_s)) * MM_PER_S_TO_KMH
