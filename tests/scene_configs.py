@@ -32,8 +32,6 @@ def short_scene(name: str, **overrides: object) -> SceneSpec:
 def traffic_scene(name: str = "traffic_720p", *overrides: str) -> SceneSpec:
     """A traffic scene of `conf/scene/`, its cars drawn from its `traffic` block; `overrides` are Hydra overrides of
     the scene's settings (`scene.traffic.duration_s=20`)."""
-    from vehloc.synth.traffic import scene_from_config
+    from vehloc.demo.table2_cases import scene_spec as composed_scene
 
-    with initialize_config_dir(config_dir=str(config_dir()), version_base="1.3"):
-        cfg = compose(config_name="scene", overrides=[f"scene={name}", "out=unused", *overrides])
-    return scene_from_config(OmegaConf.to_container(cfg.scene, resolve=True))
+    return composed_scene(name, overrides)

@@ -21,23 +21,16 @@ import time
 from pathlib import Path
 
 import pandas as pd
-from hydra import compose, initialize_config_dir
-from omegaconf import OmegaConf
 
 from vehloc.atomic import write_bytes, write_text
-from vehloc.config import config_dir
+from vehloc.demo.table2_cases import calibrate_case, render_case, scene_spec
 from vehloc.geometry.camera_calibration import read_calibration
 from vehloc.geometry.pipeline.localize import Localizer
 from vehloc.geometry.pipeline.settings import LocalizeSettings
-from vehloc.geometry.pipeline.site_calibration import calibrate_site, write_calibration_files
 from vehloc.geometry.pipeline.track_speed import SpeedStatus, TrackSpeeds
-from vehloc.geometry.pipeline.video import iter_frames, read_still, video_info
-from vehloc.geometry.site import read_site, site_yaml
+from vehloc.geometry.pipeline.video import iter_frames, video_info
 from vehloc.hardware import cpu_info
 from vehloc.infer.classifier import VehicleClassifier
-from vehloc.synth.scene import write_scene
-from vehloc.synth.scene_site import scene_site
-from vehloc.synth.traffic import scene_from_config
 from vehloc.tables import markdown_table
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -52,15 +45,10 @@ def prepare(scene: str, folder: Path) -> tuple[Path, Path]:
     """The scene's video and its calibration, rendered and calibrated when missing."""
     video, calibration = folder / "scene" / "video.avi", folder / "calibration" / "calibration.json"
     if not video.is_file():
-        with initialize_config_dir(version_base="1.3", config_dir=str(config_dir()), job_name="scene"):
-            cfg = compose("scene", overrides=[f"scene={scene}", "out=unused"])
-        spec = scene_from_config(OmegaConf.to_container(cfg.scene, resolve=True))
-        print(f"rendering {scene} ({spec.frame_count} frames) ...", flush=True)
-        write_scene(spec, folder / "scene", site_yaml(scene_site(spec, 2.0, spec.seed)))
+        print(f"rendering {scene} ...", flush=True)
+        render_case(scene_spec(scene), folder)
     if not calibration.is_file():
-        image = read_still(video)
-        result = calibrate_site(read_site(folder / "scene" / "site.yaml"), image, image_name=str(video))
-        write_calibration_files(result, image, folder / "calibration", 5000.0, {"image": str(video)})
+        calibrate_case(folder, grid_step_mm=5000.0)
     return video, calibration
 
 

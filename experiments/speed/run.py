@@ -25,26 +25,18 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from hydra import compose, initialize_config_dir
-from omegaconf import OmegaConf
 
 from vehloc.atomic import write_bytes, write_text
 from vehloc.benchmark.oracle import TrueModelClassifier
-from vehloc.config import config_dir
+from vehloc.demo.table2_cases import calibrate_case, render_case, scene_spec
 from vehloc.geometry.camera_calibration import read_calibration
 from vehloc.geometry.pipeline.brno_files import read_ground_truth, read_results
 from vehloc.geometry.pipeline.localize import Localizer
 from vehloc.geometry.pipeline.settings import LocalizeSettings
-from vehloc.geometry.pipeline.site_calibration import calibrate_site, write_calibration_files
 from vehloc.geometry.pipeline.speed_eval import score_speeds
 from vehloc.geometry.pipeline.speed_report import PUBLISHED, write_score
-from vehloc.geometry.pipeline.video import read_still
 from vehloc.geometry.pipeline.video_localization import localize_video
-from vehloc.geometry.site import read_site, site_yaml
 from vehloc.infer.classifier import VehicleClassifier
-from vehloc.synth.scene import write_scene
-from vehloc.synth.scene_site import scene_site
-from vehloc.synth.traffic import scene_from_config
 from vehloc.tables import markdown_table
 
 TRUE_MODEL_ID = 9  # the Honda Spirior, the paper's test car
@@ -78,26 +70,15 @@ class Case:
         return f"{self.scene}_seed{self.seed}" + ("_true_model" if self.true_model else "")
 
 
-def traffic_spec(case: Case, duration_s: float):
-    overrides = [f"scene={case.scene}", "out=unused", f"scene.traffic.seed={case.seed}", f"scene.seed={case.seed}",
-                 f"scene.traffic.duration_s={duration_s}"]
-    if case.true_model:
-        overrides.append(f"+scene.traffic.model_ids=[{TRUE_MODEL_ID}]")
-    with initialize_config_dir(version_base="1.3", config_dir=str(config_dir()), job_name="scene"):
-        cfg = compose("scene", overrides=overrides)
-    return scene_from_config(OmegaConf.to_container(cfg.scene, resolve=True))
-
-
 def prepare(case: Case, folder: Path, duration_s: float, force: bool) -> None:
     """`folder/scene/` rendered and `folder/calibration/` from its first frame's markers."""
     if force or not (folder / "scene" / "gt_data.json").is_file():
-        spec = traffic_spec(case, duration_s)
-        write_scene(spec, folder / "scene", site_yaml(scene_site(spec, CLICK_NOISE_PX[case.scene], spec.seed)))
+        overrides = [f"scene.traffic.seed={case.seed}", f"scene.seed={case.seed}", f"scene.traffic.duration_s={duration_s}"]
+        if case.true_model:
+            overrides.append(f"+scene.traffic.model_ids=[{TRUE_MODEL_ID}]")
+        render_case(scene_spec(case.scene, overrides), folder, CLICK_NOISE_PX[case.scene])
     if force or not (folder / "calibration" / "calibration.json").is_file():
-        video, site_path = folder / "scene" / "video.avi", folder / "scene" / "site.yaml"
-        image = read_still(video)
-        result = calibrate_site(read_site(site_path), image, CALIBRATION_MODE[case.scene], image_name=str(video))
-        write_calibration_files(result, image, folder / "calibration", 5000.0, {"site": str(site_path), "image": str(video)})
+        calibrate_case(folder, CALIBRATION_MODE[case.scene], 5000.0)
 
 
 def measure(case: Case, folder: Path, classifier: VehicleClassifier) -> dict[str, object]:

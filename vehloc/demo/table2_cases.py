@@ -1,8 +1,10 @@
 """One Table 2 case in-process: render the scene, calibrate its camera from its lane markers, localize its car
-with an exported classifier against the scene's truth. What `vehloc-demo` and the Table 2 experiment run."""
+with an exported classifier against the scene's truth. What `vehloc-demo` and the Table 2 experiment run (the
+speed experiments render and calibrate their traffic scenes with the same steps)."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import pandas as pd
@@ -21,21 +23,23 @@ from vehloc.geometry.pipeline.video_localization import VideoLocalization, local
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.synth.scene import SceneSpec, write_scene
 from vehloc.synth.scene_site import scene_site
+from vehloc.synth.traffic import scene_from_config
 
 TABLE2_SCENES = tuple(f"table2_{distance}_{angle}" for distance in ("middle", "close") for angle in ("0", "30", "minus30")) + \
     tuple(f"table2_plate_{distance}_{angle}" for distance in ("middle", "close") for angle in ("0", "30", "minus30"))
 """The paper's six poses seen side-on (wheel branch), then the six with the plate towards the camera."""
 
 
-def scene_spec(name: str) -> SceneSpec:
-    """The scene `conf/scene/<name>.yaml`, composed (inside a running vehloc Hydra app or outside one)."""
-    overrides = [f"scene={name}", "out=unused"]
+def scene_spec(name: str, overrides: Sequence[str] = ()) -> SceneSpec:
+    """The scene `conf/scene/<name>.yaml` with Hydra `overrides` (`scene.traffic.seed=3`), composed (inside a running
+    vehloc Hydra app or outside one), its traffic block's cars drawn."""
+    overrides = [f"scene={name}", "out=unused", *overrides]
     if GlobalHydra.instance().is_initialized():
         cfg = compose("scene", overrides=overrides)
     else:
         with initialize_config_dir(version_base="1.3", config_dir=str(config_dir()), job_name="scene"):
             cfg = compose("scene", overrides=overrides)
-    return SceneSpec.from_dict(OmegaConf.to_container(cfg.scene, resolve=True))
+    return scene_from_config(OmegaConf.to_container(cfg.scene, resolve=True))
 
 
 def render_case(spec: SceneSpec, folder: Path, click_noise_px: float = 2.0) -> Path:
@@ -44,12 +48,14 @@ def render_case(spec: SceneSpec, folder: Path, click_noise_px: float = 2.0) -> P
     return video
 
 
-def calibrate_case(folder: Path) -> Path:
-    """`folder/calibration/`: the camera calibrated from the markers of the scene's first (empty) frame."""
+def calibrate_case(folder: Path, mode: str = "detect", grid_step_mm: float = 1000.0) -> Path:
+    """`folder/calibration/`: the camera calibrated from the markers of the scene's first (empty) frame (`mode` as
+    `vehloc-calibrate`'s; the overlay's road grid every `grid_step_mm`)."""
     video, site_path = folder / "scene" / "video.avi", folder / "scene" / "site.yaml"
     image = read_still(video)
-    result = calibrate_site(read_site(site_path), image, image_name=str(video))
-    write_calibration_files(result, image, folder / "calibration", 1000.0, {"site": str(site_path), "image": str(video)})
+    result = calibrate_site(read_site(site_path), image, mode, image_name=str(video))
+    write_calibration_files(result, image, folder / "calibration", grid_step_mm,
+                            {"site": str(site_path), "image": str(video)})
     return folder / "calibration" / "calibration.json"
 
 

@@ -20,7 +20,6 @@ from vehloc.geometry.model_fit import shape_points_world
 from vehloc.geometry.outcome import NotPlaced, ReasonCode
 from vehloc.geometry.placement import VehicleBox
 
-BOX_EDGES = ("top", "bottom")
 NEWTON_ITERATIONS = 8
 NEWTON_STEP_MM = 10.0
 TOLERANCE_MM = 0.5
@@ -35,23 +34,21 @@ def box_edge_px(box: Box, edge: str, block_px: float = 1.0, extra_inset_px: floa
     return np.array([box.centre_px[0], box.y0 + inset_px if edge == "top" else box.y1 - 1.0 - inset_px])
 
 
+def shape_pixels(camera: PinholeCamera, shape: VehicleShape, centre_mm: np.ndarray, heading_deg: float) -> np.ndarray:
+    """The shape's points (M, 2 px) standing at `centre_mm` with `heading_deg`; NaN where behind the camera."""
+    return camera.project(shape_points_world(shape, VehicleBox(np.asarray(centre_mm, float), heading_deg, 0.0, 0.0)))
+
+
 def shape_edge_px(camera: PinholeCamera, shape: VehicleShape, centre_mm: np.ndarray, heading_deg: float,
                   edge: str) -> np.ndarray:
     """`box_edge_px` of the box the shape would have at `centre_mm` and `heading_deg` (its rows covered at least
     half: the top row half a pixel below the highest projected point, the bottom row half a pixel above the lowest);
     NaN where part of the shape is behind the camera."""
-    pixels = camera.project(shape_points_world(shape, VehicleBox(np.asarray(centre_mm, float), heading_deg, 0.0, 0.0)))
+    pixels = shape_pixels(camera, shape, centre_mm, heading_deg)
     if not np.all(np.isfinite(pixels)):
         return np.full(2, np.nan)
     row = pixels[:, 1].min() + 0.5 if edge == "top" else pixels[:, 1].max() - 0.5
     return np.array([(pixels[:, 0].min() + pixels[:, 0].max()) / 2, row])
-
-
-def shape_box_size_px(camera: PinholeCamera, shape: VehicleShape, centre_mm: np.ndarray, heading_deg: float) -> np.ndarray:
-    """The width and height (px) of the box the shape would have at `centre_mm` and `heading_deg`; NaN where part of
-    it is behind the camera."""
-    pixels = camera.project(shape_points_world(shape, VehicleBox(np.asarray(centre_mm, float), heading_deg, 0.0, 0.0)))
-    return np.ptp(pixels, axis=0) if np.all(np.isfinite(pixels)) else np.full(2, np.nan)
 
 
 def box_mismatch(camera: PinholeCamera, shape: VehicleShape, box: Box, centre_mm: np.ndarray, heading_deg: float,
@@ -59,9 +56,10 @@ def box_mismatch(camera: PinholeCamera, shape: VehicleShape, box: Box, centre_mm
     """How far the box's width and height are from the shape's at `centre_mm`, beyond the two `block_px` its edges
     may be off by (the larger, relative to the shape's): a box that holds a neighbour too, or a part of the vehicle
     only, is far from it."""
-    expected = shape_box_size_px(camera, shape, centre_mm, heading_deg)
+    pixels = shape_pixels(camera, shape, centre_mm, heading_deg)
+    expected = np.ptp(pixels, axis=0)
     observed = np.array([box.width_px, box.height_px], dtype=float)
-    if not np.all(expected > 0):
+    if not (np.all(np.isfinite(pixels)) and np.all(expected > 0)):
         return float("inf")
     return float(np.max(np.clip(np.abs(observed - expected) - 2.0 * block_px, 0.0, None) / expected))
 

@@ -56,9 +56,9 @@ def fit_speed(points_mm: np.ndarray, times_s: np.ndarray, scale_sigma_fraction: 
     times = np.asarray(times_s, dtype=float).reshape(-1)
     finite = np.all(np.isfinite(points), axis=1) & np.isfinite(times)
     points, times = points[finite], times[finite]
-    if len(points) < max(min_points, 3):
-        return NotPlaced(ReasonCode.PATH_TOO_SHORT,
-                         f"its path has {len(points)} usable point(s), fewer than {max(min_points, 3)}")
+    needed = max(min_points, 3)
+    if len(points) < needed:
+        return NotPlaced(ReasonCode.PATH_TOO_SHORT, f"its path has {len(points)} usable point(s), fewer than {needed}")
     if float(np.ptp(times)) <= 0.0:
         return NotPlaced(ReasonCode.PATH_TOO_SHORT, "its path's points are all of one instant")
     kept = np.ones(len(points), bool)
@@ -67,7 +67,7 @@ def fit_speed(points_mm: np.ndarray, times_s: np.ndarray, scale_sigma_fraction: 
         distances = np.linalg.norm(points - origin_mm - np.outer(times, velocity_mm_s), axis=1)
         spread_mm = max(MIN_SPREAD_MM, 1.4826 * float(np.median(distances[kept])))
         inliers = distances <= OUTLIER_SIGMAS * spread_mm
-        if np.array_equal(inliers, kept) or inliers.sum() < max(min_points, 3) or np.ptp(times[inliers]) <= 0.0:
+        if np.array_equal(inliers, kept) or inliers.sum() < needed or np.ptp(times[inliers]) <= 0.0:
             break
         kept = inliers
         origin_mm, velocity_mm_s = _motion(points[kept], times[kept])
@@ -86,7 +86,7 @@ def fit_speed(points_mm: np.ndarray, times_s: np.ndarray, scale_sigma_fraction: 
                          f"its steady motion covers {distance_mm / 1000:.1f} m over the {len(points)} points that fit it, "
                          f"less than {min_distance_mm / 1000:.1f} m (a vehicle that stops has no single speed)")
     residuals = centred - np.outer(centred_t, velocity_mm_s)
-    residual_mm = float(np.sqrt(np.sum(residuals**2) / (2 * len(points) - 4))) if len(points) > 2 else 0.0
+    residual_mm = float(np.sqrt(np.sum(residuals**2) / (2 * len(points) - 4)))  # 4 parameters: origin, velocity
     speed_kmh = float(np.linalg.norm(velocity_mm_s)) * MM_PER_S_TO_KMH
     fit_sigma_kmh = residual_mm / np.sqrt(spread_s2) * MM_PER_S_TO_KMH
     scale_sigma_kmh = speed_kmh * scale_sigma_fraction

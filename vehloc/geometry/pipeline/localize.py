@@ -169,8 +169,7 @@ class Localizer:
             self.removed = update.removed
             for track in update.seen:
                 cut = track.box.touches_border(width_px, height_px, self.params.border_margin_px)
-                if not (cut and track.votes.policy == "largest"):  # a cut view is large, not the best
-                    track.votes.add(frame_bgr, track.box)
+                track.votes.add(frame_bgr, track.box, cut)
                 if cut:
                     continue  # the frame cuts the vehicle: its box's bottom is not where it stands
                 bottom = np.array([[track.box.centre_px[0], track.box.y1 - 1.0]])

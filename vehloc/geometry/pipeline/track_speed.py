@@ -38,12 +38,8 @@ class SpeedParams:
     lane_gap_mm: float
     max_box_mismatch: float
     edge_inset_px: float
-    shape_top_k: int
-    shape_min_probability: float
 
     def __post_init__(self) -> None:
-        check_range("shape_top_k", self.shape_top_k, 1)
-        check_range("shape_min_probability", self.shape_min_probability, 0.0, 1.0)
         check_range("edge_inset_px", self.edge_inset_px, -2.0, 2.0)
         check_range("max_box_mismatch", self.max_box_mismatch, 0.0, low_open=True)
         check_choice("reference", self.reference, REFERENCES)
@@ -57,6 +53,10 @@ class SpeedParams:
     def from_config(cls, **overrides: object) -> SpeedParams:
         """The settings of `conf/localize/speed/default.yaml`, with `overrides`."""
         return params_from_config(cls, "localize/speed/default.yaml", overrides)
+
+
+FIT_COLUMNS = ("speed_kmh", "sigma_kmh", "fit_sigma_kmh", "scale_sigma_kmh", "heading_deg", "distance_m")
+"""The columns of `tracks.csv` a vehicle's speed fills (empty without one): the `SpeedFit` fields of those names."""
 
 
 class SpeedStatus(StrEnum):
@@ -110,11 +110,9 @@ class VehicleSpeed:
             "first_time_s": self.first_frame / self.fps, "last_time_s": self.last_frame / self.fps, "lane": self.lane,
             "model_id": self.model_id, "make": self.make, "model": self.model, "probability": self.probability,
             **dict(zip(("length_mm", "width_mm", "height_mm"), self.dims_mm or (None, None, None))),
-            **({"speed_kmh": fit.speed_kmh, "sigma_kmh": fit.sigma_kmh, "fit_sigma_kmh": fit.fit_sigma_kmh,
-                "scale_sigma_kmh": fit.scale_sigma_kmh, "heading_deg": fit.heading_deg, "distance_m": fit.distance_m,
-                "points": fit.points, "points_dropped": fit.dropped} if fit is not None else
-               {"speed_kmh": None, "sigma_kmh": None, "fit_sigma_kmh": None, "scale_sigma_kmh": None, "heading_deg": None,
-                "distance_m": None, "points": len(self.path.frames), "points_dropped": None}),
+            **{name: None if fit is None else getattr(fit, name) for name in FIT_COLUMNS},
+            "points": len(self.path.frames) if fit is None else fit.points,
+            "points_dropped": None if fit is None else fit.dropped,
             "status": self.status.value,
             "reason_code": "" if failure is None else failure.code.value, "reason": "" if failure is None else failure.message,
         }
@@ -170,7 +168,7 @@ class TrackSpeeds:
         points = bottoms
         boxes = dict(zip(track.frames, track.boxes))
         if self.params.reference != "box_bottom":
-            kept, centres = self.centres(probabilities, frames, bottoms, boxes, heading.heading_deg)
+            kept, centres = self.centres(spec.model_id, frames, bottoms, boxes, heading.heading_deg)
             frames, points = frames[kept], centres[kept].reshape(-1, 2)
         path = VehiclePath(frames, points, self.calibration.road_to_image(points) if len(points) else np.zeros((0, 2)),
                            np.array([[b.x0, b.y0, b.x1, b.y1] for b in (boxes[f] for f in frames)], int).reshape(-1, 4))
@@ -178,31 +176,23 @@ class TrackSpeeds:
                           self.params.min_distance_mm)
         return replace(vehicle, path=path, speed=speed)
 
-    def centres(self, probabilities: np.ndarray, frames: np.ndarray, bottoms: np.ndarray, boxes: dict,
+    def centres(self, spec_model_id: int, frames: np.ndarray, bottoms: np.ndarray, boxes: dict,
                 heading_deg: float) -> tuple[np.ndarray, np.ndarray]:
-        """The footprint centre of every frame from its box's edge (`centre_from_box`), the probability-weighted mean
-        over the probable models' shapes (the `shape_top_k` most probable, those at least `shape_min_probability`):
-        a model named between two of other heights lands between them. Which frames are kept: those where the most
-        probable shape's centre was found and its box is the size of the vehicle's there (`max_box_mismatch`)."""
+        """Which frames are kept and their footprint centres (N, 2 mm) from the boxes' edge and the model's shape
+        (`centre_from_box`): a frame is kept where the centre was found and its box is the size of the model's there
+        (`max_box_mismatch`)."""
         camera, edge = self.calibration.camera, self.params.reference.removeprefix("shape_")
-        order = np.argsort(-probabilities, kind="stable")[: self.params.shape_top_k]
-        candidates = [i for i in order if i == order[0] or probabilities[i] >= self.params.shape_min_probability]
-        shapes = [self.classifier.metadata.shape_of(self.classifier.classes[i].model_id) for i in candidates]
-        weights = probabilities[candidates] / probabilities[candidates].sum()
-        found = np.full((len(shapes), len(frames), 2), np.nan)
-        for s, shape in enumerate(shapes):
-            for f, (frame, bottom) in enumerate(zip(frames, bottoms)):
-                centre = centre_from_box(camera, shape, boxes[frame], heading_deg, bottom, edge, self.box_block_px,
-                                         self.params.edge_inset_px)
-                if not isinstance(centre, NotPlaced):
-                    found[s, f] = centre
-        kept = np.array([np.all(np.isfinite(found[0, f])) and box_mismatch(
-            camera, shapes[0], boxes[frame], found[0, f], heading_deg, self.box_block_px) <= self.params.max_box_mismatch
-            for f, frame in enumerate(frames)], dtype=bool)
-        valid = np.all(np.isfinite(found), axis=2)  # (shapes, frames)
-        shares = weights[:, None] * valid
-        mean = np.einsum("sf,sfc->fc", shares, np.nan_to_num(found)) / np.maximum(shares.sum(axis=0), 1e-12)[:, None]
-        return kept, mean
+        shape = self.classifier.metadata.shape_of(spec_model_id)
+        centres = np.full((len(frames), 2), np.nan)
+        kept = np.zeros(len(frames), bool)
+        for f, (frame, bottom) in enumerate(zip(frames, bottoms)):
+            centre = centre_from_box(camera, shape, boxes[frame], heading_deg, bottom, edge, self.box_block_px,
+                                     self.params.edge_inset_px)
+            if not isinstance(centre, NotPlaced):
+                centres[f] = centre
+                kept[f] = box_mismatch(camera, shape, boxes[frame], centre, heading_deg,
+                                       self.box_block_px) <= self.params.max_box_mismatch
+        return kept, centres
 
     def scale_sigma_fraction(self, points_mm: np.ndarray) -> float:
         """The calibration's relative error over a path: its reprojection error at the path's middle, in mm on the

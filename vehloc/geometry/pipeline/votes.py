@@ -35,10 +35,11 @@ class TrackVotes:
         if self.policy not in VOTE_POLICIES:
             raise ValueError(f"vote policy must be one of {', '.join(VOTE_POLICIES)}, got {self.policy!r}")
 
-    def add(self, frame_bgr: np.ndarray, box: Box) -> None:
+    def add(self, frame_bgr: np.ndarray, box: Box, cut: bool = False) -> None:
         """Offer this frame's view of the vehicle in `box`; a box too small to classify (under the classifier's
-        `MIN_SIDE_PX` a side: its ROI is the box, maybe enlarged) is not kept."""
-        if min(box.width_px, box.height_px) < MIN_SIDE_PX:
+        `MIN_SIDE_PX` a side: its ROI is the box, maybe enlarged) is not kept, nor, by `largest`, a view the frame's
+        edge `cut` (large, not the best)."""
+        if min(box.width_px, box.height_px) < MIN_SIDE_PX or (cut and self.policy == "largest"):
             return
         if self.policy == "largest":
             if len(self.crops) < self.capacity:
