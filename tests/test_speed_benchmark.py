@@ -166,6 +166,8 @@ def test_the_scorer_refuses_another_frame_rate_and_another_video_in_one_line(sce
     stated = run_cli("vehloc-speed-eval", results, truth_file, "--out", tmp_path / "score")  # the results file's own
     assert_one_error(stated, "vehloc-speed-eval", "fps is 25", "the video's is 50")
     results.write_text(results.read_text().replace('"fps": 50.0', '"fps": 25.0'))
+    negative = run_cli("vehloc-speed-eval", results, truth_file, "--out", tmp_path / "score", "--fps", "-5")
+    assert_one_error(negative, "vehloc-speed-eval", "--fps", "above 0, got -5", code=2)
     scored = run_cli("vehloc-speed-eval", results, truth_file, "--out", tmp_path / "score")
     assert scored.returncode == 0, scored.stderr[-2000:]
     assert "recall 1.000, precision 1.000" in scored.stdout

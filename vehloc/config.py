@@ -189,3 +189,14 @@ def integer_argument(low: int | None = None, high: int | None = None) -> typing.
 
     parse.__name__ = "integer"
     return parse
+
+
+def positive_number_argument(text: str) -> float:
+    """An argparse `type` for a finite number above 0; its error names the value."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"expected a finite number above 0, got {text}")
+    return value

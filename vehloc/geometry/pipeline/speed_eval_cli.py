@@ -4,10 +4,10 @@ writes it for a traffic scene) with the benchmark's rules, and write the matches
 
 from __future__ import annotations
 
-from argparse import ArgumentParser
 from pathlib import Path
 
 from vehloc.atomic import check_output_dir
+from vehloc.config import ArgumentParser, positive_number_argument
 from vehloc.errors import VehlocError, exit_on_error
 from vehloc.geometry.pipeline.brno_files import BrnoFileError, read_ground_truth, read_results
 from vehloc.geometry.pipeline.speed_eval import BENCHMARK_SIZE_PX, MODES, score_speeds
@@ -30,7 +30,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, required=True, help="the folder to write the score into")
     parser.add_argument("--mode", choices=MODES, default="median",
                         help="a car's speed: the median over 5-frame steps (the benchmark's default) or between the lines")
-    parser.add_argument("--fps", type=float, default=None,
+    parser.add_argument("--fps", type=positive_number_argument, default=None,
                         help="the video's frame rate, checked against the truth's (default: the results file's, if given)")
     args = parser.parse_args(argv)
     truth = read_ground_truth(args.truth)
