@@ -390,7 +390,7 @@ CALIBRATE_CASES = {
     "background_negative": (["background_frames=-1"], ["background_frames: must be in [0, 10000], got -1"]),
     "grid_step_0": (["grid_step_mm=0"], ["grid_step_mm: must be in [100, 100000], got 0.0"]),
     "grid_step_text": (["grid_step_mm=wide"], ["grid_step_mm: expected a finite number, got 'wide'"]),
-    "mode": (["mode=magic"], ["mode: expected one of detect, guess, got 'magic'"]),
+    "mode": (["mode=magic"], ["mode: expected one of detect, guess, auto, got 'magic'"]),
     "detection_setting": (["detection.min_area_px=abc"], ["detection.min_area_px: expected"]),
     "site_missing_value": (["site=???"], ["site=PATH is required"]),
     "site_is_a_folder": (["site={tmp}"], ["site file does not exist (it is a folder)"]),

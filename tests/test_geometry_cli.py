@@ -50,7 +50,7 @@ def test_calibrate_writes_calibration_and_overlay(road_and_site: tuple[Path, Pat
         ("image={missing}", "video does not exist"),
         ("image={corrupt}", "not a readable video"),
         ("site={missing_site}", "site file does not exist"),
-        ("mode=magic", "mode: expected one of detect, guess, got 'magic'"),
+        ("mode=magic", "mode: expected one of detect, guess, auto, got 'magic'"),
     ],
 )
 def test_calibrate_bad_input_is_one_line_and_exit_1(

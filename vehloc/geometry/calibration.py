@@ -57,8 +57,8 @@ class CalibrationParams:
 
     @classmethod
     def from_config(cls, **overrides: object) -> CalibrationParams:
-        """The settings of `conf/calibration_params/default.yaml`, with `overrides`."""
-        return params_from_config(cls, "calibration_params/default.yaml", overrides)
+        """The settings of `conf/calibrate/calibration_params/default.yaml`, with `overrides`."""
+        return params_from_config(cls, "calibrate/calibration_params/default.yaml", overrides)
 
 
 @dataclass(frozen=True)

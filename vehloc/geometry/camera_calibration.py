@@ -17,23 +17,26 @@ from vehloc.geometry.projective import ProjectiveTransform
 @dataclass(frozen=True)
 class CameraCalibration:
     """What localization needs of a calibration: the road homography, the camera when it can be recovered
-    from it, the image size it holds for and its reprojection error."""
+    from it, the image size it holds for, its reprojection error and the relative 1-sigma of its scale (0 for a
+    surveyed site; an automatic calibration's from the vehicles that scaled it)."""
 
     road_to_image: ProjectiveTransform
     image_size_px: tuple[int, int]
     camera: PinholeCamera | None
     rms_reprojection_px: float
     source: str
+    scale_sigma_fraction: float = 0.0
 
     @classmethod
     def from_homography(cls, homography: np.ndarray, image_size_px: tuple[int, int], rms_reprojection_px: float,
-                        source: str) -> CameraCalibration:
+                        source: str, scale_sigma_fraction: float = 0.0) -> CameraCalibration:
         road_to_image = ProjectiveTransform.road_to_image(homography, *image_size_px)
         try:
             camera = camera_from_homography(road_to_image, *image_size_px).camera
         except CalibrationError:
             camera = None
-        return cls(road_to_image, tuple(image_size_px), camera, float(rms_reprojection_px), source)
+        return cls(road_to_image, tuple(image_size_px), camera, float(rms_reprojection_px), source,
+                   float(scale_sigma_fraction))
 
     def check_image_size(self, width_px: int, height_px: int, what: str) -> None:
         """CalibrationError when `what` (a video or image) is not of the calibrated size."""
@@ -55,11 +58,14 @@ def read_calibration(path: str | Path) -> CameraCalibration:
         homography = np.array(content["homography_world_mm_to_image_px"], dtype=float)
         size = tuple(int(v) for v in content["image_size_px"])
         rms = float(content["rms_reprojection_px"])
+        scale_sigma = float(content.get("scale_sigma_fraction", 0.0))
     except (KeyError, TypeError, ValueError) as err:
         raise CalibrationError(f"{path}: not a calibration.json of vehloc-calibrate ({type(err).__name__}: {err})") from None
     if homography.shape != (3, 3) or not np.all(np.isfinite(homography)) or len(size) != 2 or min(size) <= 0:
         raise CalibrationError(f"{path}: needs a 3x3 homography of finite numbers and a positive image size")
+    if not (np.isfinite(scale_sigma) and scale_sigma >= 0.0):
+        raise CalibrationError(f"{path}: scale_sigma_fraction must be a finite number >= 0, got {scale_sigma}")
     try:
-        return CameraCalibration.from_homography(homography, size, rms, str(path))
+        return CameraCalibration.from_homography(homography, size, rms, str(path), scale_sigma)
     except ValueError as err:
         raise CalibrationError(f"{path}: {err}") from None

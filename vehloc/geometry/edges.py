@@ -24,7 +24,7 @@ EdgeObservation = tuple[np.ndarray, np.ndarray]
 @dataclass(frozen=True)
 class EdgeSearchParams:
     """How far and how finely edges are searched around their predicted image (set in
-    `conf/calibration_params/default.yaml`, under `edge_search`)."""
+    `conf/calibrate/calibration_params/default.yaml`, under `edge_search`)."""
 
     search_px: float
     min_contrast: float

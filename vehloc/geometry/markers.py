@@ -37,8 +37,8 @@ class MarkerDetectionParams:
 
     @classmethod
     def from_config(cls, **overrides: object) -> MarkerDetectionParams:
-        """The settings of `conf/detection/default.yaml`, with `overrides`."""
-        return params_from_config(cls, "detection/default.yaml", overrides)
+        """The settings of `conf/calibrate/detection/default.yaml`, with `overrides`."""
+        return params_from_config(cls, "calibrate/detection/default.yaml", overrides)
 
 
 @dataclass(frozen=True)

@@ -52,11 +52,13 @@ def road_mm_per_px(road_to_image: ProjectiveTransform, point_mm: np.ndarray) -> 
     return float(np.linalg.svd(jacobian, compute_uv=False)[0])
 
 
-def calibration_part(rms_reprojection_px: float, mm_per_px: float, baseline_mm: float) -> tuple[float, float]:
-    """The calibration's share: the reprojection error at the vehicle (mm) and the turn it makes over the
-    `baseline_mm` that sets the heading (deg)."""
+def calibration_part(rms_reprojection_px: float, mm_per_px: float, baseline_mm: float,
+                     scale_position_mm: float = 0.0) -> tuple[float, float]:
+    """The calibration's share: the reprojection error at the vehicle (mm), with the scale's error there
+    (`scale_position_mm`: its relative 1-sigma times the distance from the camera's foot) in quadrature, and the turn
+    the reprojection error makes over the `baseline_mm` that sets the heading (deg)."""
     position_mm = rms_reprojection_px * mm_per_px
-    return position_mm, float(np.degrees(np.sqrt(2.0) * position_mm / baseline_mm))
+    return float(np.hypot(position_mm, scale_position_mm)), float(np.degrees(np.sqrt(2.0) * position_mm / baseline_mm))
 
 
 def paper_dimension_part(kind: str, spread_mm: np.ndarray) -> tuple[float, float]:

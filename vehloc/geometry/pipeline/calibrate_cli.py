@@ -1,8 +1,10 @@
-"""`vehloc-calibrate site=... image=...`: calibrate a camera, write calibration.json and overlay.png.
+"""`vehloc-calibrate site=... image=...`: calibrate a camera from a surveyed site, write calibration.json and
+overlay.png; `vehloc-calibrate mode=auto video=... model=...`: calibrate it from the traffic it sees, no site.
 
-Every setting and the site file are checked before the image is read; the site's image_size_px must be the
-image's; calibration.json, overlay.png and image.png replace an earlier calibration in the run folder together,
-when all three are complete."""
+Every setting and the site file (or the model file) are checked before the image or video is read; the site's
+image_size_px must be the image's; the calibration's files replace an earlier calibration in the run folder
+together, when all are complete. An automatic calibration that the traffic cannot give (too few vehicles, none
+moving straight) is refused with one line and leaves the run folder as it was."""
 
 from __future__ import annotations
 
@@ -15,19 +17,35 @@ from omegaconf import DictConfig, OmegaConf
 from vehloc.atomic import check_output_dir
 from vehloc.config import ConfigError, build_params, check_choice, check_range, config_dir
 from vehloc.errors import exit_on_error, hydra_main
-from vehloc.geometry.calibration import CalibrationParams
+from vehloc.geometry.auto_calibration import NoCamera
+from vehloc.geometry.calibration import CalibrationError, CalibrationParams
 from vehloc.geometry.markers import MarkerDetectionParams
 from vehloc.geometry.site import read_site
+from vehloc.geometry.pipeline.auto_calibrate import (
+    AutoCalibrationParams,
+    auto_calibrate,
+    collect_traffic,
+    mean_size_model,
+    recognised_models,
+)
+from vehloc.geometry.pipeline.auto_calibration_files import write_auto_calibration_files
+from vehloc.geometry.pipeline.settings import LocalizeSettings
 from vehloc.geometry.pipeline.site_calibration import CALIBRATION_MODES, calibrate_site, write_calibration_files
-from vehloc.geometry.pipeline.video import median_background, read_still
+from vehloc.geometry.pipeline.video import median_background, read_still, video_info
+from vehloc.infer.classifier import VehicleClassifier
+
+MODES = (*CALIBRATION_MODES, "auto")
 
 
 @dataclass(frozen=True)
 class CalibrateParams:
-    """The top-level settings of `conf/calibrate.yaml`."""
+    """The top-level settings of `conf/calibrate/calibrate.yaml`."""
 
-    site: str
-    image: str
+    site: str | None
+    image: str | None
+    video: str | None
+    model: str | None
+    localize: tuple[str, ...]
     frame_index: int
     background_frames: int
     mode: str
@@ -36,26 +54,73 @@ class CalibrateParams:
     def __post_init__(self) -> None:
         check_range("frame_index", self.frame_index, 0)
         check_range("background_frames", self.background_frames, 0, 10_000)
-        check_choice("mode", self.mode, CALIBRATION_MODES)
+        check_choice("mode", self.mode, MODES)
         check_range("grid_step_mm", self.grid_step_mm, 100.0, 100_000.0)
 
 
-def check_calibrate_config(cfg: DictConfig) -> tuple[CalibrateParams, MarkerDetectionParams, CalibrationParams]:
+REQUIRED = {
+    "detect": (("site", "the site file"), ("image", "the image or video to calibrate on")),
+    "guess": (("site", "the site file"), ("image", "the image or video to calibrate on")),
+    "auto": (("video", "the video whose traffic calibrates the camera"),
+             ("model", "the exported classifier (.onnx) that recognises the vehicles")),
+}
+
+
+@dataclass(frozen=True)
+class CalibrateConfig:
+    """Every setting of a calibration: the top level, the marker detector's, the site calibration's, the automatic
+    calibration's and (mode=auto) the localization's that find and track the vehicles."""
+
+    params: CalibrateParams
+    detection: MarkerDetectionParams
+    calibration: CalibrationParams
+    auto: AutoCalibrationParams
+    localize: LocalizeSettings | None
+
+
+def check_calibrate_config(cfg: DictConfig) -> CalibrateConfig:
     """Every setting of the calibration, checked before any work (ConfigError naming the first bad one)."""
-    for key, what in (("site", "the site file"), ("image", "the image or video to calibrate on")):
-        if OmegaConf.is_missing(cfg, key):
-            raise ConfigError(f"{key}=PATH is required: {what}")
-    top = {k: v for k, v in OmegaConf.to_container(cfg, resolve=True).items() if k not in ("detection", "calibration")}
+    groups = ("detection", "calibration", "auto")
+    top = {k: v for k, v in OmegaConf.to_container(cfg, resolve=True).items() if k not in groups}
     params = build_params(CalibrateParams, top, "")
+    for key, what in REQUIRED[params.mode]:
+        if getattr(params, key) in (None, "", "???"):
+            raise ConfigError(f"{key}=PATH is required with mode={params.mode}: {what}")
     detection = build_params(MarkerDetectionParams, OmegaConf.to_container(cfg.detection, resolve=True), "detection")
     calibration = build_params(CalibrationParams, OmegaConf.to_container(cfg.calibration, resolve=True), "calibration")
-    return params, detection, calibration
+    auto = build_params(AutoCalibrationParams, OmegaConf.to_container(cfg.auto, resolve=True), "auto")
+    localize = LocalizeSettings.compose(params.localize) if params.mode == "auto" else None
+    return CalibrateConfig(params, detection, calibration, auto, localize)
+
+
+def run_auto(params: CalibrateParams, auto: AutoCalibrationParams, settings: LocalizeSettings, out_dir: Path) -> None:
+    """Calibrate from the video's traffic and write the files; CalibrationError (one line) when it cannot."""
+    classifier = VehicleClassifier.from_onnx(params.model)
+    info = video_info(params.video)
+    if info.frame_count < 2:
+        raise CalibrationError(f"{params.video}: {info.frame_count} frame(s); an automatic calibration needs a video")
+    evidence = collect_traffic(params.video, auto, settings)
+    model_of = recognised_models(classifier) if auto.scale_source == "recognised" else mean_size_model(classifier)
+    result = auto_calibrate(evidence, model_of, auto, settings.pipeline.border_margin_px, settings.speed.edge_inset_px)
+    if isinstance(result, NoCamera):
+        raise CalibrationError(f"{params.video}: no automatic calibration: {result}")
+    write_auto_calibration_files(result, evidence.background_bgr, out_dir, params.grid_step_mm,
+                                 {"video": params.video, "model": params.model})
+    print(
+        f"focal {result.focal_px:.1f} +- {result.focal_sigma_px:.1f} px, camera {result.scale.height_mm / 1000:.2f} m up "
+        f"+- {100 * result.scale.sigma_fraction:.1f} % from {result.scale.vehicles} vehicles "
+        f"({len(evidence.tracks)} tracked, {evidence.frames} frames); wrote {out_dir / 'calibration.json'} and overlay.png"
+    )
 
 
 @exit_on_error("vehloc-calibrate")
 def _run(cfg: DictConfig) -> None:
     out_dir = check_output_dir(Path(HydraConfig.get().runtime.output_dir), "run folder")
-    params, detection, calibration = check_calibrate_config(cfg)
+    config = check_calibrate_config(cfg)
+    params, detection, calibration = config.params, config.detection, config.calibration
+    if params.mode == "auto":
+        run_auto(params, config.auto, config.localize, out_dir)
+        return
     site = read_site(params.site)
     if params.background_frames > 0:
         image = median_background(params.image, params.background_frames)
@@ -74,7 +139,7 @@ def _run(cfg: DictConfig) -> None:
     )
 
 
-@hydra_main("vehloc-calibrate", str(config_dir()), "calibrate")
+@hydra_main("vehloc-calibrate", str(config_dir() / "calibrate"), "calibrate")
 def main(cfg: DictConfig) -> None:
     _run(cfg)
 

@@ -282,7 +282,9 @@ class Localizer:
 
     def _calibration_part(self, box: VehicleBox, baseline_mm: float) -> tuple[float, float]:
         mm_per_px = road_mm_per_px(self.calibration.road_to_image, box.centre_mm)
-        return calibration_part(self.calibration.rms_reprojection_px, mm_per_px, baseline_mm)
+        from_foot_mm = float(np.linalg.norm(box.centre_mm - self.calibration.camera.centre_mm[:2]))
+        return calibration_part(self.calibration.rms_reprojection_px, mm_per_px, baseline_mm,
+                                self.calibration.scale_sigma_fraction * from_foot_mm)
 
     def _paper_uncertainty(self, box: VehicleBox, kind: str, probabilities: np.ndarray, baseline_mm: float) -> Uncertainty:
         spread = dimension_spread_mm(probabilities, self.classifier.metadata.dims_mm, self.params.uncertainty_top_k)

@@ -196,15 +196,16 @@ class TrackSpeeds:
 
     def scale_sigma_fraction(self, points_mm: np.ndarray) -> float:
         """The calibration's relative error over a path: its reprojection error at the path's middle, in mm on the
-        road, at both ends, over the path's length."""
+        road, at both ends, over the path's length, and its scale's own (an automatic calibration's), in quadrature."""
+        scale = self.calibration.scale_sigma_fraction
         if len(points_mm) < 2:
-            return 0.0
+            return scale
         length_mm = float(np.linalg.norm(points_mm[-1] - points_mm[0]))
         if length_mm <= 0.0:
-            return 0.0
+            return scale
         middle = points_mm[len(points_mm) // 2]
         position_mm = self.calibration.rms_reprojection_px * road_mm_per_px(self.calibration.road_to_image, middle)
-        return float(np.sqrt(2.0) * position_mm / length_mm)
+        return float(np.hypot(np.sqrt(2.0) * position_mm / length_mm, scale))
 
 
 def assign_lanes(vehicles: Sequence[VehicleSpeed], params: SpeedParams) -> list[VehicleSpeed]:

@@ -1,0 +1,164 @@
+"""A camera from what traffic shows it, no survey: the focal length and the road's orientation from the vanishing
+points of the road's two directions (Dubská et al.), the camera's height (the scene's scale) from the recognised
+vehicles' shapes (as Sochor et al.'s BBScale aligns 3D models to the vehicles' boxes).
+
+World frame of an automatic calibration: the camera's foot at the origin, Y along the traffic's direction (the first
+vanishing point, the way the camera looks), X across it to the right, Z up: vehloc's road frame, placed at the camera.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from vehloc.data.boxes import Box
+from vehloc.data.shapes import VehicleShape
+from vehloc.geometry.camera import PinholeCamera
+
+NEWTON_ITERATIONS = 10
+TOLERANCE = 1e-4
+
+
+@dataclass(frozen=True)
+class NoCamera:
+    """Why no camera follows from the evidence. False in a condition."""
+
+    message: str
+
+    def __bool__(self) -> bool:
+        return False
+
+    def __str__(self) -> str:
+        return self.message
+
+
+def intrinsics(focal_px: float, pp_px: np.ndarray) -> np.ndarray:
+    return np.array([[focal_px, 0.0, pp_px[0]], [0.0, focal_px, pp_px[1]], [0.0, 0.0, 1.0]])
+
+
+def focal_from_vanishing_points(vp1_h: np.ndarray, vp2_h: np.ndarray, pp_px: np.ndarray) -> float | NoCamera:
+    """The focal length (px) that makes the two homogeneous vanishing points those of perpendicular directions, the
+    principal point `pp_px` and the pixels square; a `NoCamera` when none does."""
+    a1, a2 = (np.asarray(v[:2], float) - v[2] * np.asarray(pp_px, float) for v in (vp1_h, vp2_h))
+    w = float(vp1_h[2] * vp2_h[2])
+    if abs(w) < 1e-15 * max(np.linalg.norm(a1) * np.linalg.norm(a2), 1e-300):
+        return NoCamera("a vanishing point is at infinity: the focal length cannot be told from the two")
+    focal_squared = -float(a1 @ a2) / w
+    if not focal_squared > 0.0:
+        return NoCamera("the vanishing points are not those of two perpendicular road directions (no real focal length)")
+    return float(np.sqrt(focal_squared))
+
+
+def camera_from_vanishing_points(vp1_h: np.ndarray, vp2_h: np.ndarray, pp_px: np.ndarray, height_mm: float,
+                                 image_size_px: tuple[int, int]) -> PinholeCamera | NoCamera:
+    """The camera `height_mm` above the road whose vanishing points of the road's along (`vp1_h`) and across
+    (`vp2_h`) directions are those given (homogeneous px), in the automatic calibration's world frame."""
+    focal = focal_from_vanishing_points(vp1_h, vp2_h, pp_px)
+    if isinstance(focal, NoCamera):
+        return focal
+    K = intrinsics(focal, pp_px)
+    K_inv = np.linalg.inv(K)
+    along = K_inv @ np.asarray(vp1_h, float)
+    along = along / np.linalg.norm(along) * (1.0 if along[2] >= 0 else -1.0)
+    across = K_inv @ np.asarray(vp2_h, float)
+    across = across - (across @ along) * along
+    up = np.cross(along, across / np.linalg.norm(across))
+    up = up if up[1] < 0 else -up  # the road's normal points up the image
+    right = np.cross(along, up)
+    R = np.column_stack([right, along, up])
+    t = -R @ np.array([0.0, 0.0, height_mm])
+    return PinholeCamera(K, R, t, *image_size_px)
+
+
+def camera_at_height(camera: PinholeCamera, height_mm: float) -> PinholeCamera:
+    """The same camera moved up or down its vertical to `height_mm` above the road (the scene scaled)."""
+    return PinholeCamera(camera.K, camera.R, -camera.R @ np.array([0.0, 0.0, height_mm]), camera.width_px,
+                         camera.height_px)
+
+
+def shape_points_car(shape: VehicleShape, heading_deg: float) -> np.ndarray:
+    """The shape's points (M, 3 mm) turned to `heading_deg`, around its footprint centre."""
+    c, s = np.cos(np.radians(heading_deg)), np.sin(np.radians(heading_deg))
+    return shape.points_mm @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]).T
+
+
+@dataclass(frozen=True)
+class BoxScale:
+    """One view's estimate: the camera height (mm) at which the shape's box has the vehicle's top, left and right
+    edges, its footprint centre there (mm) and how far its bottom edge is from the box's (px, + below)."""
+
+    height_mm: float
+    centre_mm: np.ndarray
+    bottom_gap_px: float
+
+
+def box_sides_px(points_px: np.ndarray) -> np.ndarray:
+    """Top row, left and right columns of the box of pixels the projected points cover at least half."""
+    return np.array([points_px[:, 1].min() + 0.5, points_px[:, 0].min() + 0.5, points_px[:, 0].max() - 0.5])
+
+
+def height_from_box(camera: PinholeCamera, shape: VehicleShape, box: Box, heading_deg: float,
+                    inset_px: float = 0.0) -> BoxScale | NoCamera:
+    """The camera height at which the vehicle's `shape`, heading `heading_deg` along the road, has `box`'s top, left
+    and right edges (each moved `inset_px` in, see `box_edge_px`), by Newton's method on (centre, 1/scale) in the
+    frame of `camera` (any height: the scene scales about the camera's foot); a `NoCamera` when it does not converge."""
+    points_car = shape_points_car(shape, heading_deg)
+    camera_height = float(camera.centre_mm[2])
+    target = np.array([box.y0 + inset_px, box.x0 + inset_px, box.x1 - 1.0 - inset_px])
+    bottom_road = camera.image_to_road(np.array([[box.centre_px[0], box.y1 - 1.0]]))[0]
+    unknowns = np.array([bottom_road[0], bottom_road[1], 1.0])  # centre (mm, this camera's frame), shrink factor
+
+    def sides(x: np.ndarray) -> np.ndarray:
+        world = points_car * x[2] + [x[0], x[1], 0.0]
+        pixels = camera.project(world)
+        return box_sides_px(pixels) if np.all(np.isfinite(pixels)) else np.full(3, np.nan)
+
+    steps = np.array([10.0, 10.0, 1e-3])
+    for _ in range(NEWTON_ITERATIONS):
+        here = sides(unknowns)
+        jacobian = np.column_stack([(sides(unknowns + np.eye(3)[k] * steps[k]) - here) / steps[k] for k in range(3)])
+        if not (np.all(np.isfinite(jacobian)) and np.all(np.isfinite(here))) or abs(np.linalg.det(jacobian)) < 1e-15:
+            break
+        move = np.linalg.solve(jacobian, target - here)
+        unknowns = unknowns + move
+        if unknowns[2] <= 0:
+            break
+        if abs(move[2]) < TOLERANCE * unknowns[2] and np.linalg.norm(move[:2]) < 1.0:
+            pixels = camera.project(points_car * unknowns[2] + [unknowns[0], unknowns[1], 0.0])
+            bottom_gap = float(box.y1 - 1.0 - inset_px - (pixels[:, 1].max() - 0.5))
+            foot = camera.centre_mm[:2]
+            return BoxScale(camera_height / unknowns[2], foot + (unknowns[:2] - foot) / unknowns[2], bottom_gap)
+    return NoCamera("no camera height puts the model's box where the vehicle's is")
+
+
+@dataclass(frozen=True)
+class RobustScale:
+    """The camera height combined over vehicles: the median of their estimates (mm), its 1-sigma from their spread
+    and from the classifier's doubt about their models, and how many vehicles gave it."""
+
+    height_mm: float
+    sigma_spread_mm: float
+    sigma_classifier_mm: float
+    vehicles: int
+
+    @property
+    def sigma_mm(self) -> float:
+        return float(np.hypot(self.sigma_spread_mm, self.sigma_classifier_mm))
+
+    @property
+    def sigma_fraction(self) -> float:
+        return self.sigma_mm / self.height_mm
+
+
+def combine_heights(heights_mm: np.ndarray, doubt_fractions: np.ndarray) -> RobustScale:
+    """The median of the vehicles' heights, its 1-sigma from their median absolute deviation (x 1.4826, the
+    median's efficiency 1.2533, over the square root of their count) and from each vehicle's relative doubt about
+    its model's size (`doubt_fractions`, averaged in quadrature over the count)."""
+    heights = np.asarray(heights_mm, dtype=float)
+    n = len(heights)
+    median = float(np.median(heights))
+    mad = float(np.median(np.abs(heights - median)))
+    spread = 1.4826 * mad * 1.2533 / np.sqrt(n)
+    classifier = median * float(np.sqrt(np.mean(np.asarray(doubt_fractions, float) ** 2)) / np.sqrt(n))
+    return RobustScale(median, spread, classifier, n)
