@@ -88,3 +88,26 @@ def test_a_few_frames_show_each_vehicle_with_its_id_and_speed(run: dict[str, Pat
     assert busiest.loc[frames[0]] >= 1 and max(busiest.loc[f] for f in frames) == busiest.max()
     image = cv2.imread(str(pictures[0]))
     assert image.shape == (720, 1280, 3)
+
+
+def test_the_camera_calibrated_by_its_traffic_alone(run: dict[str, Path]) -> None:
+    """No markers, no site: the vanishing points from the vehicles' paths and edges, the scale from their (true)
+    model's shape fitted to their boxes, against the scene's true camera."""
+    from vehloc.geometry.pipeline.auto_calibrate import AutoCalibrationParams, auto_calibrate, collect_traffic, recognised_models
+    from vehloc.geometry.truth import read_scene_truth
+
+    params = AutoCalibrationParams.from_config(min_vehicles=5)
+    settings = LocalizeSettings.compose(["experiment=traffic"])
+    evidence = collect_traffic(run["scene"] / "video.avi", params, settings, progress=False)
+    result = auto_calibrate(evidence, recognised_models(TrueModelClassifier(MODEL_ID)), params,
+                            settings.pipeline.border_margin_px, settings.speed.edge_inset_px)
+    truth = read_scene_truth(run["scene"] / "ground_truth.json").camera
+    assert result, str(result)
+    assert result.scale.vehicles >= 5
+    # the development scene's figures are 1.1 % (focal) and 1.5 % (height): within 3 % here
+    assert abs(result.focal_px / truth.focal_px - 1.0) < 0.03
+    assert abs(result.scale.height_mm / truth.centre_mm[2] - 1.0) < 0.03
+    # road distances along the middle lane's measured stretch, through the true camera's pixels: within 3 %
+    road = np.array([[0.0, y] for y in (14000.0, 26000.0, 38000.0)])
+    back = result.camera.image_to_road(truth.road_to_image()(road))
+    assert np.allclose(np.linalg.norm(np.diff(back, axis=0), axis=1), 12000.0, rtol=0.03)

@@ -18,6 +18,8 @@ from vehloc.geometry.camera import PinholeCamera
 
 NEWTON_ITERATIONS = 10
 TOLERANCE = 1e-4
+START_SHRINKS = tuple(np.geomspace(0.1, 10.0, 11))
+"""Where the shrink factor (the camera's assumed height over its true one) may start."""
 
 
 @dataclass(frozen=True)
@@ -102,7 +104,8 @@ def height_from_box(camera: PinholeCamera, shape: VehicleShape, box: Box, headin
                     inset_px: float = 0.0) -> BoxScale | NoCamera:
     """The camera height at which the vehicle's `shape`, heading `heading_deg` along the road, has `box`'s top, left
     and right edges (each moved `inset_px` in, see `box_edge_px`), by Newton's method on (centre, 1/scale) in the
-    frame of `camera` (any height: the scene scales about the camera's foot); a `NoCamera` when it does not converge."""
+    frame of `camera` (any height: the scene scales about the camera's foot), started from the road point under the box's
+    bottom and the best of a few shrink factors; a `NoCamera` when it does not converge."""
     points_car = shape_points_car(shape, heading_deg)
     camera_height = float(camera.centre_mm[2])
     target = np.array([box.y0 + inset_px, box.x0 + inset_px, box.x1 - 1.0 - inset_px])
@@ -114,6 +117,9 @@ def height_from_box(camera: PinholeCamera, shape: VehicleShape, box: Box, headin
         pixels = camera.project(world)
         return box_sides_px(pixels) if np.all(np.isfinite(pixels)) else np.full(3, np.nan)
 
+    residuals = [np.linalg.norm(sides(np.array([*bottom_road, k])) - target) for k in START_SHRINKS]
+    residuals = [r if np.isfinite(r) else np.inf for r in residuals]
+    unknowns[2] = START_SHRINKS[int(np.argmin(residuals))]
     steps = np.array([10.0, 10.0, 1e-3])
     for _ in range(NEWTON_ITERATIONS):
         here = sides(unknowns)

@@ -1,6 +1,7 @@
 """What moving vehicles show of the road's directions, frame by frame: the straight paths of points tracked on them
 (KLT features, forward-backward checked: each a segment towards the traffic's vanishing point) and the straight
-edges of their bodies (line segments, many across the road: towards the second vanishing point)."""
+edges of their bodies (line segments, many across the road: towards the second vanishing point); and the road's own
+lines along the traffic, where it has them, once the traffic has told their direction."""
 
 from __future__ import annotations
 
@@ -102,9 +103,9 @@ class FeatureTracks:
         return Segments(np.array(centres), np.array(directions), np.array(extents))
 
 
-def edge_segments(gray: np.ndarray, moving_mask: np.ndarray, min_length_px: float) -> Segments:
-    """The straight edges (OpenCV's line segment detector) whose middle lies on the moving vehicles' mask, at least
-    `min_length_px` long, weighted by their length."""
+def edge_segments(gray: np.ndarray, mask: np.ndarray | None, min_length_px: float) -> Segments:
+    """The straight edges (OpenCV's line segment detector) at least `min_length_px` long, weighted by their length;
+    with `mask`, those whose middle lies on it (the moving vehicles)."""
     found = cv2.createLineSegmentDetector().detect(gray)[0]
     if found is None:
         return Segments.empty()
@@ -112,11 +113,23 @@ def edge_segments(gray: np.ndarray, moving_mask: np.ndarray, min_length_px: floa
     middles = (ends[:, :2] + ends[:, 2:]) / 2
     vectors = ends[:, 2:] - ends[:, :2]
     lengths = np.linalg.norm(vectors, axis=1)
-    height, width = gray.shape
-    columns = np.clip(middles[:, 0].astype(int), 0, width - 1)
-    rows = np.clip(middles[:, 1].astype(int), 0, height - 1)
-    keep = (moving_mask[rows, columns] > 0) & (lengths >= min_length_px)
+    keep = lengths >= min_length_px
+    if mask is not None:
+        height, width = gray.shape
+        columns = np.clip(middles[:, 0].astype(int), 0, width - 1)
+        rows = np.clip(middles[:, 1].astype(int), 0, height - 1)
+        keep &= mask[rows, columns] > 0
     return Segments(middles[keep], vectors[keep] / lengths[keep, None], lengths[keep])
+
+
+def road_line_candidates(background_bgr: np.ndarray, vp1_h: np.ndarray, min_length_fraction: float,
+                         max_angle_deg: float) -> Segments:
+    """The road's own lines along the traffic (lane lines, edges, kerbs) in the image without traffic: its long
+    straight edges (at least `min_length_fraction` of the image's diagonal) within `max_angle_deg` of the first
+    vanishing point that the traffic's motion gave."""
+    gray = cv2.cvtColor(background_bgr, cv2.COLOR_BGR2GRAY)
+    edges = edge_segments(gray, None, min_length_fraction * float(np.hypot(*gray.shape)))
+    return edges.subset(edges.sin_to(vp1_h) < np.sin(np.radians(max_angle_deg)))
 
 
 def across_candidates(edges: Segments, vp1_h: np.ndarray, min_angle_to_vp1_deg: float,

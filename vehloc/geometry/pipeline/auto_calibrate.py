@@ -32,7 +32,13 @@ from vehloc.geometry.pipeline.speed_files import benchmark_calibration
 from vehloc.geometry.pipeline.tracker import StoppedVehicleTracker, VehicleTrack
 from vehloc.geometry.pipeline.video import iter_frames, video_info
 from vehloc.geometry.roi import VehicleRoiExtractor
-from vehloc.geometry.traffic_evidence import FeatureParams, FeatureTracks, across_candidates, edge_segments
+from vehloc.geometry.traffic_evidence import (
+    FeatureParams,
+    FeatureTracks,
+    across_candidates,
+    edge_segments,
+    road_line_candidates,
+)
 from vehloc.geometry.vanishing import NoVanishingPoint, Segments, VanishingPoint, find_vanishing_point, refine_point
 from vehloc.infer.classifier import VehicleClassifier
 
@@ -60,6 +66,11 @@ class AutoCalibrationParams:
     edge_max_slope_deg: float
     edge_max_angle_deg: float
     min_support: float
+    road_lines: bool
+    road_line_min_length_fraction: float
+    road_line_search_deg: float
+    road_line_max_angle_deg: float
+    min_road_lines: int
     bootstrap_samples: int
     nominal_height_mm: float
     views_per_vehicle: int
@@ -85,6 +96,10 @@ class AutoCalibrationParams:
         check_range("edge_max_slope_deg", self.edge_max_slope_deg, 1.0, 89.0)
         check_range("edge_max_angle_deg", self.edge_max_angle_deg, 0.0, 45.0, low_open=True)
         check_range("min_support", self.min_support, 0.0, 1.0, low_open=True)
+        check_range("road_line_min_length_fraction", self.road_line_min_length_fraction, 0.0, 1.0, low_open=True)
+        check_range("road_line_search_deg", self.road_line_search_deg, 0.0, 45.0, low_open=True)
+        check_range("road_line_max_angle_deg", self.road_line_max_angle_deg, 0.0, 45.0, low_open=True)
+        check_range("min_road_lines", self.min_road_lines, 2, 10_000)
         check_range("bootstrap_samples", self.bootstrap_samples, 2, 10_000)
         check_range("nominal_height_mm", self.nominal_height_mm, 0.0, 1e6, low_open=True)
         check_range("views_per_vehicle", self.views_per_vehicle, 1, 10_000)
@@ -126,9 +141,10 @@ def moving_mask(extractor: VehicleRoiExtractor, shape: tuple[int, int]) -> np.nd
 
 
 def collect_traffic(video: str | Path, params: AutoCalibrationParams, settings: LocalizeSettings | None = None,
-                    progress: bool = True) -> TrafficEvidence:
+                    progress: bool | None = None) -> TrafficEvidence:
     """One pass over `video`: the background model's vehicle boxes tracked (each track keeping its largest views for
-    the vote), points followed on the moving vehicles and their edges found (MediaError when it cannot be read)."""
+    the vote), points followed on the moving vehicles and their edges found (MediaError when it cannot be read). A
+    progress bar with `progress`; None: where stderr is a terminal."""
     settings = settings or LocalizeSettings.compose()
     info = video_info(video)
     total = info.frame_count if params.max_frames == 0 else min(info.frame_count, params.max_frames)
@@ -139,7 +155,7 @@ def collect_traffic(video: str | Path, params: AutoCalibrationParams, settings: 
     finished: list[VehicleTrack] = []
     frames = 0
     for index, frame in enumerate(tqdm(iter_frames(video), total=total, desc="frames", unit="frame",
-                                       disable=not progress)):
+                                       disable=None if progress is None else not progress)):
         if index >= total:
             break
         frames += 1
@@ -267,8 +283,9 @@ def vehicle_height(track: VehicleTrack, model: VehicleModel, camera: PinholeCame
 class AutoCalibration:
     """A camera calibrated from traffic: the two vanishing points (homogeneous px) and their fits, the principal
     point, the focal length with its 1-sigma, the camera at the height the vehicles gave, the height's combination,
-    each vehicle's estimate, and the segments the vanishing points were found on (`motion`: paths of points on the
-    vehicles; `across`: their edges that may run across the road)."""
+    each vehicle's estimate, and the segments the vanishing points were found on (`along`: the road's lines along the
+    traffic where it has them (`vp1_source` "road lines"), else the paths of points on the vehicles ("motion");
+    `across`: the vehicles' edges that may run across the road)."""
 
     vp1: VanishingPoint
     vp2: VanishingPoint
@@ -278,10 +295,11 @@ class AutoCalibration:
     camera: PinholeCamera
     scale: RobustScale
     vehicles: tuple[VehicleHeight, ...]
-    motion: Segments
+    along: Segments
     across: Segments
     rms_reprojection_px: float
     scale_source: str
+    vp1_source: str
 
     def camera_calibration(self, source: str) -> CameraCalibration:
         """The calibration as localization uses it, with the scale's relative 1-sigma."""
@@ -308,7 +326,7 @@ class AutoCalibration:
             "principal_point_px": self.pp_px.tolist(),
             "vp1_px": self.vp1.point_px.tolist(), "vp2_px": self.vp2.point_px.tolist(),
             "vp1_rms_deg": self.vp1.rms_deg, "vp2_rms_deg": self.vp2.rms_deg,
-            "motion_segments": len(self.motion), "edge_segments": len(self.across),
+            "vp1_source": self.vp1_source, "along_segments": len(self.along), "across_segments": len(self.across),
             "scale_source": self.scale_source, "vehicles_used": self.scale.vehicles,
             "height_sigma_spread_mm": self.scale.sigma_spread_mm,
             "height_sigma_classifier_mm": self.scale.sigma_classifier_mm,
@@ -318,12 +336,12 @@ class AutoCalibration:
         return summary
 
 
-def focal_sigma_px(motion: Segments, across: Segments, vp1: VanishingPoint, vp2: VanishingPoint, pp_px: np.ndarray,
+def focal_sigma_px(along: Segments, across: Segments, vp1: VanishingPoint, vp2: VanishingPoint, pp_px: np.ndarray,
                    samples: int, seed: int = 0) -> float:
     """The focal length's 1-sigma: its spread over the vanishing points refined on resampled (bootstrap) consenting
     segments."""
     rng = np.random.default_rng(seed)
-    inliers1, inliers2 = motion.subset(vp1.inliers), across.subset(vp2.inliers)
+    inliers1, inliers2 = along.subset(vp1.inliers), across.subset(vp2.inliers)
     focals = []
     for _ in range(samples):
         one = refine_point(inliers1.subset(rng.integers(0, len(inliers1), len(inliers1))), vp1.point_h)
@@ -334,10 +352,10 @@ def focal_sigma_px(motion: Segments, across: Segments, vp1: VanishingPoint, vp2:
     return float(np.std(focals)) if len(focals) >= 2 else float("inf")
 
 
-def motion_rms_px(motion: Segments, vp1: VanishingPoint) -> float:
-    """How far, RMS over the consenting paths, a path's ends are from the line through its middle and the first
+def along_rms_px(along: Segments, vp1: VanishingPoint) -> float:
+    """How far, RMS over the consenting segments, a segment's ends are from the line through its middle and the first
     vanishing point (px)."""
-    inliers = motion.subset(vp1.inliers)
+    inliers = along.subset(vp1.inliers)
     return float(np.sqrt(np.average((inliers.sin_to(vp1.point_h) * inliers.weights / 2) ** 2)))
 
 
@@ -348,9 +366,17 @@ def auto_calibrate(evidence: TrafficEvidence, model_of: ModelOfTrack, params: Au
     width, height = evidence.image_size_px
     pp = np.array(params.principal_point_px if params.principal_point_px is not None
                   else ((width - 1) / 2, (height - 1) / 2), dtype=float)
-    vp1 = find_vanishing_point(evidence.motion, params.motion_max_angle_deg, params.min_support)
-    if isinstance(vp1, NoVanishingPoint):
-        return NoCamera(f"no vehicle seen moving straight ({len(evidence.motion)} straight point paths): {vp1}")
+    motion_vp1 = find_vanishing_point(evidence.motion, params.motion_max_angle_deg, params.min_support)
+    if isinstance(motion_vp1, NoVanishingPoint):
+        return NoCamera(f"no vehicle seen moving straight ({len(evidence.motion)} straight point paths): {motion_vp1}")
+    along, vp1, vp1_source = evidence.motion, motion_vp1, "motion"
+    if params.road_lines:
+        lines = road_line_candidates(evidence.background_bgr, motion_vp1.point_h, params.road_line_min_length_fraction,
+                                     params.road_line_search_deg)
+        lines_vp1 = find_vanishing_point(lines, params.road_line_max_angle_deg, 0.5) if len(lines) >= params.min_road_lines \
+            else NoVanishingPoint("too few road lines")
+        if isinstance(lines_vp1, VanishingPoint) and lines_vp1.inliers.sum() >= params.min_road_lines:
+            along, vp1, vp1_source = lines, lines_vp1, "road lines"
     across = across_candidates(evidence.edges, vp1.point_h, params.edge_min_angle_to_vp1_deg, params.edge_max_slope_deg)
     vp2 = find_vanishing_point(across, params.edge_max_angle_deg, params.min_support)
     if isinstance(vp2, NoVanishingPoint):
@@ -373,7 +399,6 @@ def auto_calibrate(evidence: TrafficEvidence, model_of: ModelOfTrack, params: Au
     scale = combine_heights(np.array([v.height_mm for v in vehicles]), np.array([v.size_doubt for v in vehicles]))
     camera = camera_at_height(unit, scale.height_mm)
     focal = float(unit.K[0, 0])
-    return AutoCalibration(vp1, vp2, pp, focal, focal_sigma_px(evidence.motion, across, vp1, vp2, pp,
-                                                                params.bootstrap_samples),
-                           camera, scale, tuple(vehicles), evidence.motion, across,
-                           motion_rms_px(evidence.motion, vp1), params.scale_source)
+    return AutoCalibration(vp1, vp2, pp, focal, focal_sigma_px(along, across, vp1, vp2, pp, params.bootstrap_samples),
+                           camera, scale, tuple(vehicles), along, across, along_rms_px(along, vp1), params.scale_source,
+                           vp1_source)

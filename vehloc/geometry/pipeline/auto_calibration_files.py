@@ -40,19 +40,20 @@ def _draw_towards(canvas: np.ndarray, segments: Segments, point_h: np.ndarray, c
 
 def draw_auto_calibration(background_bgr: np.ndarray, result: AutoCalibration, grid_step_mm: float) -> np.ndarray:
     """The road without traffic, the road grid of the recovered camera (cyan, `grid_step_mm`), lines to the first
-    vanishing point from the straightest paths (green) and to the second from the longest edges across (magenta)."""
+    vanishing point from the longest segments it was found on (green: road lines or paths of points on the vehicles)
+    and to the second from the longest edges across (magenta)."""
     canvas = background_bgr.copy()
     camera = result.camera
     height, width = canvas.shape[:2]
     near = camera.image_to_road(np.array([[(width - 1) / 2, height - 1.0]]))[0]
     extent = np.array([[near[0] - 15000.0, near[1]], [near[0] + 15000.0, near[1] + 100_000.0]])
     draw_grid(canvas, camera.road_to_image(), extent, grid_step_mm)
-    _draw_towards(canvas, result.motion.subset(result.vp1.inliers), result.vp1.point_h, VP1_BGR)
+    _draw_towards(canvas, result.along.subset(result.vp1.inliers), result.vp1.point_h, VP1_BGR)
     _draw_towards(canvas, result.across.subset(result.vp2.inliers), result.vp2.point_h, VP2_BGR)
     text = (f"f {result.focal_px:.0f} px, height {result.scale.height_mm / 1000:.2f} m "
             f"+- {100 * result.scale.sigma_fraction:.1f} %, {result.scale.vehicles} vehicles")
-    cv2.putText(canvas, text, (10, 24), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (0, 0, 0), 3, cv2.LINE_AA)
-    cv2.putText(canvas, text, (10, 24), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (255, 255, 255), 1, cv2.LINE_AA)
+    cv2.putText(canvas, text, (10, 28), cv2.FONT_HERSHEY_SIMPLEX, 0.7, (0, 0, 0), 4, cv2.LINE_AA)
+    cv2.putText(canvas, text, (10, 28), cv2.FONT_HERSHEY_SIMPLEX, 0.7, (255, 255, 255), 2, cv2.LINE_AA)
     return canvas
 
 

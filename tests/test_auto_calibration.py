@@ -1,0 +1,177 @@
+"""A camera from its traffic, piece by piece against exact truth: vanishing points from segments (finite, at infinity,
+none), the camera from two vanishing points, the camera's height from a vehicle's box and shape, the combination
+over vehicles, points tracked on a moving pattern, and `vehloc-calibrate mode=auto` refusing what it cannot do."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from bad_input import assert_one_error, run_cli, write_handmade_onnx
+
+from vehloc.data.boxes import Box
+from vehloc.data.shapes import VehicleShape
+from vehloc.geometry.auto_calibration import (
+    NoCamera,
+    box_sides_px,
+    camera_at_height,
+    camera_from_vanishing_points,
+    combine_heights,
+    focal_from_vanishing_points,
+    height_from_box,
+    shape_points_car,
+)
+from vehloc.geometry.brno import vanishing_point_px
+from vehloc.geometry.camera import PinholeCamera
+from vehloc.geometry.traffic_evidence import FeatureParams, FeatureTracks
+from vehloc.geometry.vanishing import NoVanishingPoint, Segments, VanishingPoint, find_vanishing_point
+
+CAMERAS = {
+    "beside the road": PinholeCamera.look_at((-7000.0, -4000.0, 9000.0), (0.0, 24000.0, 0.0), 1100.0, 1280, 720, 0.0),
+    "rolled, turned": PinholeCamera.look_at((-11276.0, 1019.0, 12000.0), (0.0, 32000.0, 0.0), 2317.6, 1920, 1080, 2.0),
+    "steep, wide": PinholeCamera.look_at((-936.0, 12148.0, 15000.0), (0.0, 30000.0, 0.0), 960.0, 1920, 1080, -1.0),
+}
+
+
+def _homogeneous(point_px: np.ndarray) -> np.ndarray:
+    return np.append(point_px, 1.0)
+
+
+def _segments_towards(point_px: np.ndarray, count: int, rng: np.random.Generator, noise_deg: float = 0.0) -> Segments:
+    points = rng.uniform(0, 1000, (count, 2))
+    directions = point_px - points
+    angles = np.arctan2(directions[:, 1], directions[:, 0]) + np.radians(rng.normal(0, noise_deg, count) if noise_deg else 0)
+    return Segments(points, np.column_stack([np.cos(angles), np.sin(angles)]), rng.uniform(10, 50, count))
+
+
+def test_a_vanishing_point_is_found_through_outliers() -> None:
+    rng = np.random.default_rng(0)
+    target = np.array([700.0, -300.0])
+    outliers = Segments(rng.uniform(0, 1000, (30, 2)), np.tile([np.cos(1.0), np.sin(1.0)], (30, 1)),
+                        rng.uniform(10, 50, 30))  # parallel to each other, not towards the point
+    found = find_vanishing_point(Segments.join([_segments_towards(target, 60, rng), outliers]), 1.0, 0.3)
+    assert isinstance(found, VanishingPoint)
+    # exact segments: the point to 1e-6 px, the 30 parallel outliers left out
+    assert np.allclose(found.point_px, target, atol=1e-6)
+    assert found.inliers[:60].all() and not found.inliers[60:].any()
+    noisy = find_vanishing_point(_segments_towards(target, 200, rng, noise_deg=0.2), 1.0, 0.3)
+    assert np.linalg.norm(noisy.point_px - target) < 5.0  # 0.2 deg of noise, 200 segments: within 5 px
+
+
+def test_parallel_segments_meet_at_infinity_and_scattered_ones_nowhere() -> None:
+    rng = np.random.default_rng(1)
+    parallel = Segments(rng.uniform(0, 500, (20, 2)), np.tile([1.0, 0.0], (20, 1)), np.ones(20))
+    found = find_vanishing_point(parallel, 1.0, 0.3)
+    assert found and found.at_infinity and np.all(np.isinf(found.point_px))
+    angles = rng.uniform(0, np.pi, 40)
+    scattered = Segments(rng.uniform(0, 500, (40, 2)), np.column_stack([np.cos(angles), np.sin(angles)]), np.ones(40))
+    assert isinstance(find_vanishing_point(scattered, 0.5, 0.5), NoVanishingPoint)
+    one = find_vanishing_point(parallel.subset(np.arange(20) < 1), 1.0, 0.3)
+    assert isinstance(one, NoVanishingPoint) and not one and "too few" in str(one)
+
+
+@pytest.mark.parametrize("name", CAMERAS)
+def test_the_camera_follows_from_its_two_vanishing_points(name: str) -> None:
+    truth = CAMERAS[name]
+    vp1, vp2 = (_homogeneous(vanishing_point_px(truth, d)) for d in ([0.0, 1.0, 0.0], [1.0, 0.0, 0.0]))
+    camera = camera_from_vanishing_points(vp1, vp2, truth.K[:2, 2], float(truth.centre_mm[2]),
+                                          (truth.width_px, truth.height_px))
+    assert abs(camera.focal_px - truth.focal_px) < 1e-6 * truth.focal_px
+    # the same road: distances between road points through the true camera's pixels, to 1e-6 relative
+    road = np.array([[x, y] for x in (-3500.0, 0.0, 3500.0) for y in (20000.0, 30000.0, 40000.0)])
+    back = camera.image_to_road(truth.road_to_image()(road))
+    first, second = np.triu_indices(len(road), k=1)
+    true_mm = np.linalg.norm(road[first] - road[second], axis=1)
+    assert np.allclose(np.linalg.norm(back[first] - back[second], axis=1), true_mm, rtol=1e-6)
+    # the same tilt and roll (world frames differ only by a turn about the vertical and a shift)
+    assert np.isclose(camera.R[2, 2], truth.R[2, 2], atol=1e-9) and np.isclose(camera.R[0, 2], truth.R[0, 2], atol=1e-9)
+
+
+def test_no_focal_length_from_a_point_at_infinity_or_from_directions_not_perpendicular() -> None:
+    pp = np.array([640.0, 360.0])
+    at_infinity = focal_from_vanishing_points(np.array([300.0, 10.0, 1.0]), np.array([1.0, 0.0, 0.0]), pp)
+    assert isinstance(at_infinity, NoCamera) and "infinity" in str(at_infinity)
+    same_side = focal_from_vanishing_points(np.array([300.0, 10.0, 1.0]), np.array([100.0, 20.0, 1.0]), pp)
+    assert isinstance(same_side, NoCamera) and "perpendicular" in str(same_side)
+
+
+@pytest.mark.parametrize("name", CAMERAS)
+def test_the_camera_height_from_one_box_and_its_shape(name: str) -> None:
+    truth = CAMERAS[name]
+    shape = VehicleShape.cuboid(4600.0, 1800.0, 1450.0)
+    centre, heading = np.array([1000.0, 28000.0]), -90.0
+    pixels = truth.project(shape_points_car(shape, heading) + [centre[0], centre[1], 0.0])
+    top, left, right = box_sides_px(pixels)
+    bottom = pixels[:, 1].max() - 0.5
+    # the box whose top, left and right edges are the projected shape's, rounded to whole pixels
+    box = Box(int(round(left)), int(round(top)), int(round(right)) + 1, int(round(bottom)) + 1)
+    vp1, vp2 = (_homogeneous(vanishing_point_px(truth, d)) for d in ([0.0, 1.0, 0.0], [1.0, 0.0, 0.0]))
+    unit = camera_from_vanishing_points(vp1, vp2, truth.K[:2, 2], 1000.0, (truth.width_px, truth.height_px))
+    found = height_from_box(unit, shape, box, heading)
+    assert found
+    # rounding the box's edges moves them up to 0.5 px: on boxes 60-400 px wide, within 1.5 % of the true height
+    assert abs(found.height_mm / truth.centre_mm[2] - 1.0) < 0.015
+    # the same estimate from a camera of any other height (the scene scales about the camera's foot)
+    again = height_from_box(camera_at_height(unit, 25000.0), shape, box, heading)
+    assert abs(again.height_mm / found.height_mm - 1.0) < 1e-4
+
+
+def test_heights_combine_to_their_median_with_its_sigma() -> None:
+    heights = np.array([9000.0, 9100.0, 8900.0, 9050.0, 8950.0, 12000.0])
+    combined = combine_heights(heights, np.full(6, 0.05))
+    assert combined.height_mm == 9025.0 and combined.vehicles == 6
+    mad = np.median(np.abs(heights - 9025.0))
+    assert np.isclose(combined.sigma_spread_mm, 1.4826 * mad * 1.2533 / np.sqrt(6))
+    assert np.isclose(combined.sigma_classifier_mm, 9025.0 * 0.05 / np.sqrt(6))
+    assert np.isclose(combined.sigma_mm, np.hypot(combined.sigma_spread_mm, combined.sigma_classifier_mm))
+
+
+def test_points_tracked_on_a_moving_pattern_point_along_its_motion() -> None:
+    rng = np.random.default_rng(3)
+    texture = (rng.uniform(0, 255, (40, 60)) > 128).astype(np.uint8) * 200 + 30
+    texture = cv2.resize(texture, (120, 80), interpolation=cv2.INTER_NEAREST)
+    tracks = FeatureTracks(FeatureParams(100, 6.0, 0.3, 8, 15.0, 0.5))
+    direction = np.array([np.cos(0.4), np.sin(0.4)])
+    for step in range(30):
+        frame = np.full((300, 400), 90, np.uint8)
+        x, y = (np.array([40.0, 40.0]) + 4.0 * step * direction).astype(int)
+        frame[y:y + 80, x:x + 120] = texture
+        mask = np.zeros_like(frame)
+        mask[y:y + 80, x:x + 120] = 255
+        tracks.update(frame, mask, detect=step % 2 == 0)
+    segments = tracks.finish()
+    assert len(segments) >= 10
+    # every straight path runs along the motion within 1 degree (whole-pixel steps: within 0.6 deg of 0.4 rad)
+    cosines = np.abs(segments.directions @ direction)
+    assert np.all(cosines > np.cos(np.radians(1.0)))
+
+
+def test_calibrate_auto_refuses_a_video_without_traffic(tmp_path: Path) -> None:
+    video = tmp_path / "empty_road.avi"
+    writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"MJPG"), 25.0, (320, 240))
+    road = np.random.default_rng(0).integers(60, 90, (240, 320, 3), dtype=np.uint8)
+    for _ in range(180):
+        writer.write(road)
+    writer.release()
+    model = write_handmade_onnx(tmp_path / "model.onnx", model_ids=(7, 9, 12))
+    (tmp_path / "out").mkdir()
+    (tmp_path / "out" / "calibration.json").write_text("{\"kept\": true}")
+    result = run_cli("vehloc-calibrate", "mode=auto", f"video={video}", f"model={model}",
+                     f"hydra.run.dir={tmp_path / 'out'}")
+    assert_one_error(result, "vehloc-calibrate", str(video), "no automatic calibration", "no vehicle seen moving straight")
+    assert (tmp_path / "out" / "calibration.json").read_text() == "{\"kept\": true}"
+
+
+@pytest.mark.parametrize(("overrides", "fragment"), [
+    (["mode=auto"], "video=PATH is required with mode=auto"),
+    (["mode=auto", "video=v.avi"], "model=PATH is required with mode=auto"),
+    (["mode=auto", "video=v.avi", "model=m.onnx", "auto.min_vehicles=0"], "auto.min_vehicles: must be in [1, 100000]"),
+    (["mode=auto", "video=v.avi", "model=m.onnx", "auto.scale_source=guess"], "auto.scale_source: expected one of"),
+    (["mode=auto", "video=v.avi", "model=m.onnx", 'localize=["roi.nope=1"]'], "Could not override 'roi.nope'"),
+])
+def test_calibrate_auto_checks_its_settings_first(overrides: list[str], fragment: str, tmp_path: Path) -> None:
+    result = run_cli("vehloc-calibrate", *overrides, f"hydra.run.dir={tmp_path / 'out'}")
+    assert_one_error(result, "vehloc-calibrate", fragment)
+    assert not (tmp_path / "out" / "calibration.json").exists()
