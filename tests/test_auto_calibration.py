@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 from bad_input import assert_one_error, run_cli, write_handmade_onnx
 
-from vehloc.data.boxes import Box
 from vehloc.data.shapes import VehicleShape
 from vehloc.geometry.auto_calibration import (
     NoCamera,
@@ -20,7 +19,7 @@ from vehloc.geometry.auto_calibration import (
     camera_from_vanishing_points,
     combine_heights,
     focal_from_vanishing_points,
-    height_from_box,
+    height_from_sides,
     shape_points_car,
 )
 from vehloc.geometry.brno import vanishing_point_px
@@ -105,16 +104,17 @@ def test_the_camera_height_from_one_box_and_its_shape(name: str) -> None:
     pixels = truth.project(shape_points_car(shape, heading) + [centre[0], centre[1], 0.0])
     top, left, right = box_sides_px(pixels)
     bottom = pixels[:, 1].max() - 0.5
-    # the box whose top, left and right edges are the projected shape's, rounded to whole pixels
-    box = Box(int(round(left)), int(round(top)), int(round(right)) + 1, int(round(bottom)) + 1)
+    # the outline of whole pixels around the projected shape: its edges rounded, as a silhouette's
+    sides, bottom = np.round([top, left, right]), float(np.round(bottom))
     vp1, vp2 = (_homogeneous(vanishing_point_px(truth, d)) for d in ([0.0, 1.0, 0.0], [1.0, 0.0, 0.0]))
     unit = camera_from_vanishing_points(vp1, vp2, truth.K[:2, 2], 1000.0, (truth.width_px, truth.height_px))
-    found = height_from_box(unit, shape, box, heading)
+    found = height_from_sides(unit, shape, sides, bottom, heading)
     assert found
-    # rounding the box's edges moves them up to 0.5 px: on boxes 60-400 px wide, within 1.5 % of the true height
+    # rounding the edges moves them up to 0.5 px: on outlines 60-400 px wide, within 1.5 % of the true height
     assert abs(found.height_mm / truth.centre_mm[2] - 1.0) < 0.015
+    assert abs(found.bottom_gap_px) <= 1.0  # the shape's bottom where the outline's is, to the rounding
     # the same estimate from a camera of any other height (the scene scales about the camera's foot)
-    again = height_from_box(camera_at_height(unit, 25000.0), shape, box, heading)
+    again = height_from_sides(camera_at_height(unit, 25000.0), shape, sides, bottom, heading)
     assert abs(again.height_mm / found.height_mm - 1.0) < 1e-4
 
 

@@ -100,7 +100,7 @@ def test_the_camera_calibrated_by_its_traffic_alone(run: dict[str, Path]) -> Non
     settings = LocalizeSettings.compose(["experiment=traffic"])
     evidence = collect_traffic(run["scene"] / "video.avi", params, settings, progress=False)
     result = auto_calibrate(evidence, recognised_models(TrueModelClassifier(MODEL_ID)), params,
-                            settings.pipeline.border_margin_px, settings.speed.edge_inset_px)
+                            settings.pipeline.border_margin_px)
     truth = read_scene_truth(run["scene"] / "ground_truth.json").camera
     assert result, str(result)
     assert result.scale.vehicles >= 5

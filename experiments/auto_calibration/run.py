@@ -10,9 +10,9 @@ measured with the recognised-models calibration and with the markers' (`vehloc-c
 
     python experiments/auto_calibration/run.py --model demo_data/model.onnx --out outputs/auto_calibration
 
-The development case (`traffic_720p`, seed 0: the camera of the speed benchmark) is the one the settings of
-`conf/calibrate/auto_calibration/` were chosen on; the eight set-ups (seed 100) were rendered after those choices and
-not tuned on. Writes per case its folder (`scene/`, `calibration/` from the markers, `auto_<source>/` per scale
+The development cases (`traffic_720p`, `traffic_240p`, `traffic_1080p`, seed 0: the camera of the speed benchmark)
+are the ones the settings of `conf/calibrate/auto_calibration/` were chosen on; the eight set-ups (seed 200) were
+rendered after those choices and not tuned on. Writes per case its folder (`scene/`, `calibration/` from the markers, `auto_<source>/` per scale
 source, `localize_<calibration>/`, `score_<calibration>/`), and `auto_calibration.csv`, `.md`, `vehicles_needed.csv`
 and `auto_calibration.png`. Cases already rendered in `--out` are reused (`--force` renders again).
 """
@@ -59,7 +59,8 @@ from vehloc.tables import markdown_table
 
 SETUPS = ["traffic_cam_a_1080p", "traffic_cam_b_1080p", "traffic_cam_c_1080p", "traffic_cam_d_720p",
           "traffic_cam_e_720p", "traffic_cam_f_720p", "traffic_cam_g_240p", "traffic_cam_h_240p"]
-SPLITS = {"dev": [("traffic_720p", 0)], "heldout": [(name, 100) for name in SETUPS]}
+SPLITS = {"dev": [("traffic_720p", 0), ("traffic_240p", 0), ("traffic_1080p", 0)],
+          "heldout": [(name, 200) for name in SETUPS]}
 SOURCES = ("recognised", "mean_size", "true_model")
 VEHICLE_COUNTS = (10, 20, 50, 100)
 SUBSETS = 200
@@ -205,8 +206,7 @@ def run_case(case: Case, folder: Path, classifier: VehicleClassifier, params: Au
                "true_model": true_models(truth)}
     rows, needed, results = [], [], {}
     for source, model_of in sources.items():
-        result = auto_calibrate(evidence, model_of, params, settings.pipeline.border_margin_px,
-                                settings.speed.edge_inset_px)
+        result = auto_calibrate(evidence, model_of, params, settings.pipeline.border_margin_px)
         results[source] = result
         if not isinstance(result, NoCamera):
             write_auto_calibration_files(result, evidence.background_bgr, folder / f"auto_{source}", 5000.0,

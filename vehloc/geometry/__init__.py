@@ -2,7 +2,8 @@
 plane, the pinhole camera, calibration from lane markers, the background model's vehicle boxes and
 silhouettes, the detectors of the paper's key points (footprint lines, plate, wheels), the box's placement on
 the road, the model fit, a vehicle's path on the road, its reference point from its box and model, its speed, the
-speed benchmark's camera model, and the estimates' uncertainty.
+speed benchmark's camera model, the estimates' uncertainty, and a camera from its traffic (vanishing points from
+segments, the camera from two of them, its height from a vehicle's box and shape).
 
 It imports no classifier and writes no file: the pipeline above it (`vehloc.geometry.pipeline`) runs it over
 videos with the classifier and writes the results. The names below are its API; the rest of each module is
@@ -11,6 +12,8 @@ its workings."""
 from vehloc.api import lazy_api
 
 __all__, __getattr__ = lazy_api(__name__, {
+    "auto_calibration": ["BoxScale", "NoCamera", "RobustScale", "camera_at_height", "camera_from_vanishing_points",
+                         "combine_heights", "focal_from_vanishing_points", "height_from_box"],
     "box_reference": ["box_edge_px", "box_mismatch", "centre_from_box", "shape_edge_px"],
     "brno": ["BrnoCalibration", "brno_calibration", "focal_and_road_plane", "project_to_metres", "road_plane_points"],
     "calibration": ["Calibration", "CalibrationError", "CalibrationParams", "calibrate", "camera_from_homography"],
@@ -29,7 +32,9 @@ __all__, __getattr__ = lazy_api(__name__, {
     "silhouette_start": ["silhouette_start_headings_deg"],
     "site": ["Site", "SiteError", "read_site", "site_yaml"],
     "speed": ["SpeedFit", "fit_speed"],
+    "traffic_evidence": ["FeatureParams", "FeatureTracks", "across_candidates", "edge_segments", "road_line_candidates"],
     "truth": ["CarTruth", "SceneTruth", "SceneTruthError", "read_scene_truth"],
     "uncertainty": ["Uncertainty"],
+    "vanishing": ["NoVanishingPoint", "Segments", "VanishingPoint", "find_vanishing_point", "refine_point"],
     "wheels": ["WheelParams", "Wheels", "detect_wheels"],
 })

@@ -12,7 +12,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vehloc.data.boxes import Box
 from vehloc.data.shapes import VehicleShape
 from vehloc.geometry.camera import PinholeCamera
 
@@ -88,7 +87,7 @@ def shape_points_car(shape: VehicleShape, heading_deg: float) -> np.ndarray:
 @dataclass(frozen=True)
 class BoxScale:
     """One view's estimate: the camera height (mm) at which the shape's box has the vehicle's top, left and right
-    edges, its footprint centre there (mm) and how far its bottom edge is from the box's (px, + below)."""
+    edges, its footprint centre there (mm) and how far the vehicle's bottom is below the shape's (px)."""
 
     height_mm: float
     centre_mm: np.ndarray
@@ -100,16 +99,16 @@ def box_sides_px(points_px: np.ndarray) -> np.ndarray:
     return np.array([points_px[:, 1].min() + 0.5, points_px[:, 0].min() + 0.5, points_px[:, 0].max() - 0.5])
 
 
-def height_from_box(camera: PinholeCamera, shape: VehicleShape, box: Box, heading_deg: float,
-                    inset_px: float = 0.0) -> BoxScale | NoCamera:
-    """The camera height at which the vehicle's `shape`, heading `heading_deg` along the road, has `box`'s top, left
-    and right edges (each moved `inset_px` in, see `box_edge_px`), by Newton's method on (centre, 1/scale) in the
-    frame of `camera` (any height: the scene scales about the camera's foot), started from the road point under the box's
-    bottom and the best of a few shrink factors; a `NoCamera` when it does not converge."""
+def height_from_sides(camera: PinholeCamera, shape: VehicleShape, sides_px: np.ndarray, bottom_px: float,
+                      heading_deg: float) -> BoxScale | NoCamera:
+    """The camera height at which the vehicle's `shape`, heading `heading_deg` along the road, has the vehicle's top
+    row, left and right columns `sides_px` (as `box_sides_px`), by Newton's method on (centre, 1/scale) in the frame of
+    `camera` (any height: the scene scales about the camera's foot), started from the road point under the middle of
+    the bottom row `bottom_px` and the best of a few shrink factors; a `NoCamera` when it does not converge."""
     points_car = shape_points_car(shape, heading_deg)
     camera_height = float(camera.centre_mm[2])
-    target = np.array([box.y0 + inset_px, box.x0 + inset_px, box.x1 - 1.0 - inset_px])
-    bottom_road = camera.image_to_road(np.array([[box.centre_px[0], box.y1 - 1.0]]))[0]
+    target = np.asarray(sides_px, dtype=float)
+    bottom_road = camera.image_to_road(np.array([[(target[1] + target[2]) / 2, bottom_px]]))[0]
     unknowns = np.array([bottom_road[0], bottom_road[1], 1.0])  # centre (mm, this camera's frame), shrink factor
 
     def sides(x: np.ndarray) -> np.ndarray:
@@ -132,7 +131,7 @@ def height_from_box(camera: PinholeCamera, shape: VehicleShape, box: Box, headin
             break
         if abs(move[2]) < TOLERANCE * unknowns[2] and np.linalg.norm(move[:2]) < 1.0:
             pixels = camera.project(points_car * unknowns[2] + [unknowns[0], unknowns[1], 0.0])
-            bottom_gap = float(box.y1 - 1.0 - inset_px - (pixels[:, 1].max() - 0.5))
+            bottom_gap = float(bottom_px - (pixels[:, 1].max() - 0.5))
             foot = camera.centre_mm[:2]
             return BoxScale(camera_height / unknowns[2], foot + (unknowns[:2] - foot) / unknowns[2], bottom_gap)
     return NoCamera("no camera height puts the model's box where the vehicle's is")

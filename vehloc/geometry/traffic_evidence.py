@@ -10,6 +10,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from vehloc.data.boxes import Box
+from vehloc.geometry.roi import Silhouette
 from vehloc.geometry.vanishing import Segments
 
 LK_WINDOW_PX = 15
@@ -30,7 +32,7 @@ class FeatureParams:
 
 class FeatureTracks:
     """Points tracked from frame to frame inside the moving vehicles' mask; each path, once lost, a segment if
-    it is long and straight enough."""
+    it is long and straight enough (and its points, one a frame, kept in `straight_paths`)."""
 
     def __init__(self, params: FeatureParams) -> None:
         self.params = params
@@ -38,6 +40,7 @@ class FeatureTracks:
         self.points = np.zeros((0, 2), np.float32)
         self.paths: list[list[np.ndarray]] = []
         self.segments: list[tuple[np.ndarray, np.ndarray, float]] = []
+        self.straight_paths: list[np.ndarray] = []
 
     def update(self, gray: np.ndarray, moving_mask: np.ndarray, detect: bool) -> None:
         """Follow the points into `gray`, end the paths of those lost or off the mask, and (`detect`) start new ones
@@ -91,6 +94,7 @@ class FeatureTracks:
         _, singular, axes = np.linalg.svd(points - centre, full_matrices=False)
         if singular[1] / np.sqrt(len(points)) <= self.params.max_track_rms_px:
             self.segments.append((centre, axes[0], extent))
+            self.straight_paths.append(points)
 
     def finish(self) -> Segments:
         """End every path still followed; all the straight paths as segments, weighted by their extent."""
@@ -139,3 +143,26 @@ def across_candidates(edges: Segments, vp1_h: np.ndarray, min_angle_to_vp1_deg: 
     away = edges.sin_to(vp1_h) > np.sin(np.radians(min_angle_to_vp1_deg))
     flat = np.abs(edges.directions[:, 1]) < np.sin(np.radians(max_angle_from_horizontal_deg))
     return edges.subset(away & flat)
+
+
+@dataclass(frozen=True)
+class Outline:
+    """A vehicle's extremes in one frame (pixel centres): its top row, left and right columns, and its bottom row."""
+
+    sides_px: np.ndarray
+    bottom_px: float
+
+    @property
+    def height_px(self) -> float:
+        return self.bottom_px - float(self.sides_px[0]) + 1.0
+
+
+def sure_outline(silhouette: Silhouette, roi: Box, inset_px: float) -> Outline | None:
+    """The extremes of the silhouette's sure pixels (not doubtful, or solid: no cast shadow) in frame pixels, each moved
+    `inset_px` in (a pixel the vehicle covers in part is changed too); None when it has none."""
+    sure = silhouette.mask & ((silhouette.weights >= 1.0) | silhouette.solid)
+    rows, columns = np.nonzero(sure)
+    if len(rows) == 0:
+        return None
+    return Outline(np.array([roi.y0 + rows.min() + inset_px, roi.x0 + columns.min() + inset_px,
+                             roi.x0 + columns.max() - inset_px]), float(roi.y0 + rows.max() - inset_px))

@@ -3,12 +3,15 @@ frames' vehicle boxes are followed by the tracker (one `VehicleTrack` per vehicl
 track's crops are voted on once, the stopped (or every) vehicle is placed and fitted, and each outcome is a
 `VehicleRecord`; every finished track becomes a `VehicleSpeed` (path, speed, lane); around it the video reading, the
 records' and speeds' files and pictures, the speed benchmark's files and scoring, Table 2 against a scene's truth,
-the site calibration's files and the `vehloc-localize`, `vehloc-calibrate` and `vehloc-speed-eval` CLIs. The names
+the site calibration's files, the automatic calibration from a video's traffic and its files, and the `vehloc-localize`, `vehloc-calibrate` and `vehloc-speed-eval` CLIs. The names
 below are its API."""
 
 from vehloc.api import lazy_api
 
 __all__, __getattr__ = lazy_api(__name__, {
+    "auto_calibrate": ["AutoCalibration", "AutoCalibrationParams", "TrafficEvidence", "VehicleHeight", "VehicleModel",
+                       "auto_calibrate", "collect_traffic", "mean_size_model", "recognised_models"],
+    "auto_calibration_files": ["draw_auto_calibration", "write_auto_calibration_files"],
     "brno_files": ["BrnoCar", "BrnoFileError", "BrnoResults", "GroundTruth", "read_ground_truth", "read_results",
                    "results_json"],
     "evaluation": ["table2_rows", "write_table2"],

@@ -23,7 +23,7 @@ from vehloc.geometry.auto_calibration import (
     camera_from_vanishing_points,
     combine_heights,
     focal_from_vanishing_points,
-    height_from_box,
+    height_from_sides,
 )
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.camera_calibration import CameraCalibration
@@ -35,9 +35,11 @@ from vehloc.geometry.roi import VehicleRoiExtractor
 from vehloc.geometry.traffic_evidence import (
     FeatureParams,
     FeatureTracks,
+    Outline,
     across_candidates,
     edge_segments,
     road_line_candidates,
+    sure_outline,
 )
 from vehloc.geometry.vanishing import NoVanishingPoint, Segments, VanishingPoint, find_vanishing_point, refine_point
 from vehloc.infer.classifier import VehicleClassifier
@@ -73,6 +75,9 @@ class AutoCalibrationParams:
     min_road_lines: int
     bootstrap_samples: int
     nominal_height_mm: float
+    outline_every_frames: int
+    outline_margin_px: int
+    outline_inset_px: float
     views_per_vehicle: int
     min_views: int
     min_box_height_px: int
@@ -102,6 +107,9 @@ class AutoCalibrationParams:
         check_range("min_road_lines", self.min_road_lines, 2, 10_000)
         check_range("bootstrap_samples", self.bootstrap_samples, 2, 10_000)
         check_range("nominal_height_mm", self.nominal_height_mm, 0.0, 1e6, low_open=True)
+        check_range("outline_every_frames", self.outline_every_frames, 1, 1000)
+        check_range("outline_margin_px", self.outline_margin_px, 0, 100)
+        check_range("outline_inset_px", self.outline_inset_px, 0.0, 2.0)
         check_range("views_per_vehicle", self.views_per_vehicle, 1, 10_000)
         check_range("min_views", self.min_views, 1, self.views_per_vehicle)
         check_range("min_box_height_px", self.min_box_height_px, 4, 10_000)
@@ -122,16 +130,18 @@ class AutoCalibrationParams:
 
 @dataclass(frozen=True)
 class TrafficEvidence:
-    """What one pass over a video gathered: the straight paths of points on the vehicles, their edges, their
-    finished tracks (boxes and crops), the frames read, the image size and the road without traffic."""
+    """What one pass over a video gathered: the straight paths of points on the vehicles (as segments, and their
+    points one a frame), their edges, their finished tracks (boxes and crops) with their outlines in some frames (by
+    track id and frame), the frames read, the image size and the road without traffic."""
 
     motion: Segments
+    paths: tuple[np.ndarray, ...]
     edges: Segments
     tracks: tuple[VehicleTrack, ...]
+    outlines: dict[int, dict[int, Outline]]
     frames: int
     image_size_px: tuple[int, int]
     background_bgr: np.ndarray
-    box_block_px: float
 
 
 def moving_mask(extractor: VehicleRoiExtractor, shape: tuple[int, int]) -> np.ndarray:
@@ -143,8 +153,10 @@ def moving_mask(extractor: VehicleRoiExtractor, shape: tuple[int, int]) -> np.nd
 def collect_traffic(video: str | Path, params: AutoCalibrationParams, settings: LocalizeSettings | None = None,
                     progress: bool | None = None) -> TrafficEvidence:
     """One pass over `video`: the background model's vehicle boxes tracked (each track keeping its largest views for
-    the vote), points followed on the moving vehicles and their edges found (MediaError when it cannot be read). A
-    progress bar with `progress`; None: where stderr is a terminal."""
+    the vote, and every `outline_every_frames`-th frame where the frame's edge does not cut it and it is tall enough,
+    the outline of its full-resolution silhouette without cast shadow), points followed on the moving vehicles and
+    their edges found (MediaError when it cannot be read). A progress bar with `progress`; None: where stderr is a
+    terminal."""
     settings = settings or LocalizeSettings.compose()
     info = video_info(video)
     total = info.frame_count if params.max_frames == 0 else min(info.frame_count, params.max_frames)
@@ -153,6 +165,7 @@ def collect_traffic(video: str | Path, params: AutoCalibrationParams, settings: 
     features = FeatureTracks(params.features)
     edges: list[Segments] = []
     finished: list[VehicleTrack] = []
+    outlines: dict[int, dict[int, Outline]] = {}
     frames = 0
     for index, frame in enumerate(tqdm(iter_frames(video), total=total, desc="frames", unit="frame",
                                        disable=None if progress is None else not progress)):
@@ -161,9 +174,15 @@ def collect_traffic(video: str | Path, params: AutoCalibrationParams, settings: 
         frames += 1
         update = tracker.update(extractor.apply(frame), index)
         finished.extend(update.removed)
+        outline_due = index % params.outline_every_frames == 0
         for track in update.seen:
-            track.votes.add(frame, track.box, track.box.touches_border(info.width_px, info.height_px,
-                                                                       settings.pipeline.border_margin_px))
+            cut = track.box.touches_border(info.width_px, info.height_px, settings.pipeline.border_margin_px)
+            track.votes.add(frame, track.box, cut)
+            if outline_due and not cut and track.box.height_px >= params.min_box_height_px:
+                roi = track.box.grown(params.outline_margin_px, info.width_px, info.height_px)
+                outline = sure_outline(extractor.foreground(roi), roi, params.outline_inset_px)
+                if outline is not None:
+                    outlines.setdefault(track.track_id, {})[index] = outline
         if extractor.last_mask is None:
             continue
         gray = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
@@ -174,8 +193,9 @@ def collect_traffic(video: str | Path, params: AutoCalibrationParams, settings: 
     finished.extend(tracker.tracks)
     background = extractor.background.astype(np.uint8) if extractor.background is not None else np.zeros(
         (info.height_px, info.width_px, 3), np.uint8)
-    return TrafficEvidence(features.finish(), Segments.join(edges), tuple(finished), frames,
-                           (info.width_px, info.height_px), background, 1.0 / settings.roi.scale)
+    motion = features.finish()
+    return TrafficEvidence(motion, tuple(features.straight_paths), Segments.join(edges), tuple(finished), outlines,
+                           frames, (info.width_px, info.height_px), background)
 
 
 @dataclass(frozen=True)
@@ -256,22 +276,20 @@ def track_heading_deg(track: VehicleTrack, camera: PinholeCamera, border_margin_
     return 90.0 if bottoms[1, 1] > bottoms[0, 1] else -90.0
 
 
-def vehicle_height(track: VehicleTrack, model: VehicleModel, camera: PinholeCamera, params: AutoCalibrationParams,
-                   inset_px: float, border_margin_px: int) -> VehicleHeight | None:
-    """The camera's height by one vehicle: the median over up to `views_per_vehicle` of its views (clear of the frame's
-    edge, tall enough, their bottom near the model's) of `height_from_box`; None with fewer than `min_views`."""
+def vehicle_height(track: VehicleTrack, outlines: dict[int, Outline], model: VehicleModel, camera: PinholeCamera,
+                   params: AutoCalibrationParams, border_margin_px: int) -> VehicleHeight | None:
+    """The camera's height by one vehicle: the median over up to `views_per_vehicle` of its outlines (spread over its
+    track; those whose bottom is near the model's) of `height_from_sides`; None with fewer than `min_views`."""
     heading = track_heading_deg(track, camera, border_margin_px)
-    if heading is None:
+    if heading is None or len(outlines) < params.min_views:
         return None
-    views = [b for b in track.boxes if b.height_px >= params.min_box_height_px
-             and not b.touches_border(camera.width_px, camera.height_px, border_margin_px)]
-    if len(views) < params.min_views:
-        return None
-    picked = [views[i] for i in np.unique(np.linspace(0, len(views) - 1, params.views_per_vehicle).round().astype(int))]
+    frames = sorted(outlines)
+    picked = [frames[i] for i in np.unique(np.linspace(0, len(frames) - 1, params.views_per_vehicle).round().astype(int))]
     heights = []
-    for box in picked:
-        fit = height_from_box(camera, model.shape, box, heading, inset_px)
-        if not isinstance(fit, NoCamera) and abs(fit.bottom_gap_px) <= params.max_bottom_gap_fraction * box.height_px:
+    for frame in picked:
+        outline = outlines[frame]
+        fit = height_from_sides(camera, model.shape, outline.sides_px, outline.bottom_px, heading)
+        if not isinstance(fit, NoCamera) and abs(fit.bottom_gap_px) <= params.max_bottom_gap_fraction * outline.height_px:
             heights.append(fit.height_mm)
     if len(heights) < params.min_views:
         return None
@@ -360,7 +378,7 @@ def along_rms_px(along: Segments, vp1: VanishingPoint) -> float:
 
 
 def auto_calibrate(evidence: TrafficEvidence, model_of: ModelOfTrack, params: AutoCalibrationParams,
-                   border_margin_px: int, edge_inset_px: float) -> AutoCalibration | NoCamera:
+                   border_margin_px: int) -> AutoCalibration | NoCamera:
     """The camera from the gathered traffic: a `NoCamera` saying why when no vehicle moved straight, the edges agree
     on no second vanishing point, or fewer than `min_vehicles` vehicles could be scaled."""
     width, height = evidence.image_size_px
@@ -384,13 +402,13 @@ def auto_calibrate(evidence: TrafficEvidence, model_of: ModelOfTrack, params: Au
     unit = camera_from_vanishing_points(vp1.point_h, vp2.point_h, pp, params.nominal_height_mm, (width, height))
     if isinstance(unit, NoCamera):
         return unit
-    inset = (evidence.box_block_px - 1.0) / 2 + edge_inset_px
     vehicles = []
     for track in evidence.tracks:
-        model = model_of(track)
+        outlines = evidence.outlines.get(track.track_id, {})
+        model = model_of(track) if len(outlines) >= params.min_views else None
         if model is None:
             continue
-        estimate = vehicle_height(track, model, unit, params, inset, border_margin_px)
+        estimate = vehicle_height(track, outlines, model, unit, params, border_margin_px)
         if estimate is not None:
             vehicles.append(estimate)
     if len(vehicles) < params.min_vehicles:

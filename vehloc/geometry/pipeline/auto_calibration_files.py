@@ -19,13 +19,18 @@ from vehloc.geometry.vanishing import Segments
 
 DRAWN_SEGMENTS = 40
 VP1_BGR, VP2_BGR = (0, 200, 0), (255, 0, 255)
+MIN_OVERLAY_WIDTH_PX = 960
+"""A smaller image is enlarged (by a whole factor) before the overlay is drawn on it."""
 
 
-def _draw_towards(canvas: np.ndarray, segments: Segments, point_h: np.ndarray, colour: tuple[int, int, int]) -> None:
-    """From the heaviest segments' middles, lines towards the homogeneous point (to the frame's edge)."""
+def _draw_towards(canvas: np.ndarray, segments: Segments, point_h: np.ndarray, colour: tuple[int, int, int],
+                  zoom: int) -> None:
+    """From the heaviest segments' middles, lines towards the homogeneous point (to the frame's edge), on an image
+    enlarged `zoom` times."""
     diagonal = float(np.hypot(*canvas.shape[:2]))
+    point_h = np.array([point_h[0] * zoom, point_h[1] * zoom, point_h[2]])
     for i in np.argsort(-segments.weights)[:DRAWN_SEGMENTS]:
-        start = segments.points_px[i]
+        start = segments.points_px[i] * zoom
         towards = point_h[:2] - point_h[2] * start
         if point_h[2] < 0:
             towards = -towards
@@ -39,17 +44,20 @@ def _draw_towards(canvas: np.ndarray, segments: Segments, point_h: np.ndarray, c
 
 
 def draw_auto_calibration(background_bgr: np.ndarray, result: AutoCalibration, grid_step_mm: float) -> np.ndarray:
-    """The road without traffic, the road grid of the recovered camera (cyan, `grid_step_mm`), lines to the first
+    """The road without traffic (enlarged to at least `MIN_OVERLAY_WIDTH_PX`), the road grid of the recovered camera
+    (cyan, `grid_step_mm`), lines to the first
     vanishing point from the longest segments it was found on (green: road lines or paths of points on the vehicles)
     and to the second from the longest edges across (magenta)."""
-    canvas = background_bgr.copy()
     camera = result.camera
-    height, width = canvas.shape[:2]
+    height, width = background_bgr.shape[:2]
+    zoom = max(1, int(np.ceil(MIN_OVERLAY_WIDTH_PX / width)))
+    canvas = cv2.resize(background_bgr, (width * zoom, height * zoom), interpolation=cv2.INTER_LINEAR)
     near = camera.image_to_road(np.array([[(width - 1) / 2, height - 1.0]]))[0]
     extent = np.array([[near[0] - 15000.0, near[1]], [near[0] + 15000.0, near[1] + 100_000.0]])
-    draw_grid(canvas, camera.road_to_image(), extent, grid_step_mm)
-    _draw_towards(canvas, result.along.subset(result.vp1.inliers), result.vp1.point_h, VP1_BGR)
-    _draw_towards(canvas, result.across.subset(result.vp2.inliers), result.vp2.point_h, VP2_BGR)
+    to_image = camera.road_to_image()
+    draw_grid(canvas, lambda points_mm: (to_image(points_mm) + 0.5) * zoom - 0.5, extent, grid_step_mm)
+    _draw_towards(canvas, result.along.subset(result.vp1.inliers), result.vp1.point_h, VP1_BGR, zoom)
+    _draw_towards(canvas, result.across.subset(result.vp2.inliers), result.vp2.point_h, VP2_BGR, zoom)
     text = (f"f {result.focal_px:.0f} px, height {result.scale.height_mm / 1000:.2f} m "
             f"+- {100 * result.scale.sigma_fraction:.1f} %, {result.scale.vehicles} vehicles")
     cv2.putText(canvas, text, (10, 28), cv2.FONT_HERSHEY_SIMPLEX, 0.7, (0, 0, 0), 4, cv2.LINE_AA)

@@ -101,7 +101,7 @@ def run_auto(params: CalibrateParams, auto: AutoCalibrationParams, settings: Loc
         raise CalibrationError(f"{params.video}: {info.frame_count} frame(s); an automatic calibration needs a video")
     evidence = collect_traffic(params.video, auto, settings)
     model_of = recognised_models(classifier) if auto.scale_source == "recognised" else mean_size_model(classifier)
-    result = auto_calibrate(evidence, model_of, auto, settings.pipeline.border_margin_px, settings.speed.edge_inset_px)
+    result = auto_calibrate(evidence, model_of, auto, settings.pipeline.border_margin_px)
     if isinstance(result, NoCamera):
         raise CalibrationError(f"{params.video}: no automatic calibration: {result}")
     write_auto_calibration_files(result, evidence.background_bgr, out_dir, params.grid_step_mm,
