@@ -13,7 +13,6 @@ from bad_input import assert_one_error, run_cli, write_handmade_onnx
 
 from vehloc.data.shapes import VehicleShape
 from vehloc.geometry.auto_calibration import (
-    NoCamera,
     box_sides_px,
     camera_at_height,
     camera_from_vanishing_points,
@@ -25,7 +24,8 @@ from vehloc.geometry.auto_calibration import (
 from vehloc.geometry.brno import vanishing_point_px
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.traffic_evidence import FeatureParams, FeatureTracks
-from vehloc.geometry.vanishing import NoVanishingPoint, Segments, VanishingPoint, find_vanishing_point
+from vehloc.geometry.outcome import FailedEstimate
+from vehloc.geometry.vanishing import Segments, VanishingPoint, find_vanishing_point
 
 CAMERAS = {
     "beside the road": PinholeCamera.look_at((-7000.0, -4000.0, 9000.0), (0.0, 24000.0, 0.0), 1100.0, 1280, 720, 0.0),
@@ -66,9 +66,9 @@ def test_parallel_segments_meet_at_infinity_and_scattered_ones_nowhere() -> None
     assert found and found.at_infinity and np.all(np.isinf(found.point_px))
     angles = rng.uniform(0, np.pi, 40)
     scattered = Segments(rng.uniform(0, 500, (40, 2)), np.column_stack([np.cos(angles), np.sin(angles)]), np.ones(40))
-    assert isinstance(find_vanishing_point(scattered, 0.5, 0.5), NoVanishingPoint)
+    assert isinstance(find_vanishing_point(scattered, 0.5, 0.5), FailedEstimate)
     one = find_vanishing_point(parallel.subset(np.arange(20) < 1), 1.0, 0.3)
-    assert isinstance(one, NoVanishingPoint) and not one and "too few" in str(one)
+    assert isinstance(one, FailedEstimate) and not one and "too few" in str(one)
 
 
 @pytest.mark.parametrize("name", CAMERAS)
@@ -91,9 +91,9 @@ def test_the_camera_follows_from_its_two_vanishing_points(name: str) -> None:
 def test_no_focal_length_from_a_point_at_infinity_or_from_directions_not_perpendicular() -> None:
     pp = np.array([640.0, 360.0])
     at_infinity = focal_from_vanishing_points(np.array([300.0, 10.0, 1.0]), np.array([1.0, 0.0, 0.0]), pp)
-    assert isinstance(at_infinity, NoCamera) and "infinity" in str(at_infinity)
+    assert isinstance(at_infinity, FailedEstimate) and "infinity" in str(at_infinity)
     same_side = focal_from_vanishing_points(np.array([300.0, 10.0, 1.0]), np.array([100.0, 20.0, 1.0]), pp)
-    assert isinstance(same_side, NoCamera) and "perpendicular" in str(same_side)
+    assert isinstance(same_side, FailedEstimate) and "perpendicular" in str(same_side)
 
 
 @pytest.mark.parametrize("name", CAMERAS)

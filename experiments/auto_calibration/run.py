@@ -32,7 +32,8 @@ from vehloc.atomic import write_bytes, write_text
 from vehloc.benchmark.oracle import catalog_metadata
 from vehloc.data.boxes import Box
 from vehloc.demo.table2_cases import calibrate_case, render_case, scene_spec
-from vehloc.geometry.auto_calibration import NoCamera, combine_heights
+from vehloc.geometry.auto_calibration import combine_heights
+from vehloc.geometry.outcome import FailedEstimate
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.camera_calibration import CameraCalibration, read_calibration
 from vehloc.geometry.pipeline.auto_calibrate import (
@@ -142,9 +143,9 @@ def distance_errors(truth_camera: PinholeCamera, camera: PinholeCamera, lines_y_
             "across_error_percent": 100 * float(np.median(np.abs(ratio[across])))}
 
 
-def calibration_row(result: AutoCalibration | NoCamera, truth: SceneTruth, lines_y_mm: list[float]) -> dict[str, object]:
+def calibration_row(result: AutoCalibration | FailedEstimate, truth: SceneTruth, lines_y_mm: list[float]) -> dict[str, object]:
     """One automatic calibration against the truth."""
-    if isinstance(result, NoCamera):
+    if isinstance(result, FailedEstimate):
         return {"refused": str(result)}
     true_tilt, true_roll = angles_deg(truth.camera)
     tilt, roll = angles_deg(result.camera)
@@ -208,7 +209,7 @@ def run_case(case: Case, folder: Path, classifier: VehicleClassifier, params: Au
     for source, model_of in sources.items():
         result = auto_calibrate(evidence, model_of, params, settings.pipeline.border_margin_px)
         results[source] = result
-        if not isinstance(result, NoCamera):
+        if not isinstance(result, FailedEstimate):
             write_auto_calibration_files(result, evidence.background_bgr, folder / f"auto_{source}", 5000.0,
                                          {"video": str(folder / "scene" / "video.avi"), "scale_source": source})
             needed += [{"case": case.name, "split": case.split, "source": source, **row}
@@ -220,7 +221,7 @@ def run_case(case: Case, folder: Path, classifier: VehicleClassifier, params: Au
     speeds: dict[str, float] = {}
     marker = read_calibration(folder / "calibration" / "calibration.json")
     speeds |= measure_speeds(case, folder, "markers", marker, classifier)
-    if not isinstance(results["recognised"], NoCamera):
+    if not isinstance(results["recognised"], FailedEstimate):
         automatic = results["recognised"].camera_calibration(str(folder / "auto_recognised" / "calibration.json"))
         speeds |= measure_speeds(case, folder, "auto", automatic, classifier)
     rows[0] |= speeds

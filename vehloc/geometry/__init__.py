@@ -12,8 +12,8 @@ its workings."""
 from vehloc.api import lazy_api
 
 __all__, __getattr__ = lazy_api(__name__, {
-    "auto_calibration": ["BoxScale", "NoCamera", "RobustScale", "camera_at_height", "camera_from_vanishing_points",
-                         "combine_heights", "focal_from_vanishing_points", "height_from_box"],
+    "auto_calibration": ["BoxScale", "RobustScale", "camera_at_height", "camera_from_vanishing_points",
+                         "combine_heights", "focal_from_vanishing_points", "height_from_sides"],
     "box_reference": ["box_edge_px", "box_mismatch", "centre_from_box", "shape_edge_px"],
     "brno": ["BrnoCalibration", "brno_calibration", "focal_and_road_plane", "project_to_metres", "road_plane_points"],
     "calibration": ["Calibration", "CalibrationError", "CalibrationParams", "calibrate", "camera_from_homography"],
@@ -23,7 +23,7 @@ __all__, __getattr__ = lazy_api(__name__, {
     "keypoints": ["DetectorParams", "Placement", "paper_placement"],
     "markers": ["DetectedMarker", "MarkerDetectionParams", "detect_markers"],
     "model_fit": ["FitParams", "ModelFit", "best_start", "fit_model"],
-    "outcome": ["NotPlaced", "ReasonCode"],
+    "outcome": ["FailedEstimate", "NotPlaced", "ReasonCode"],
     "motion": ["PathHeading", "path_heading", "recent_path"],
     "placement": ["VehicleBox", "direction_of", "facing", "heading_of"],
     "plate": ["Plate", "PlateParams", "detect_plate"],
@@ -32,9 +32,10 @@ __all__, __getattr__ = lazy_api(__name__, {
     "silhouette_start": ["silhouette_start_headings_deg"],
     "site": ["Site", "SiteError", "read_site", "site_yaml"],
     "speed": ["SpeedFit", "fit_speed"],
-    "traffic_evidence": ["FeatureParams", "FeatureTracks", "across_candidates", "edge_segments", "road_line_candidates"],
+    "traffic_evidence": ["FeatureParams", "FeatureTracks", "Outline", "across_candidates", "edge_segments",
+                         "road_line_candidates", "sure_outline"],
     "truth": ["CarTruth", "SceneTruth", "SceneTruthError", "read_scene_truth"],
     "uncertainty": ["Uncertainty"],
-    "vanishing": ["NoVanishingPoint", "Segments", "VanishingPoint", "find_vanishing_point", "refine_point"],
+    "vanishing": ["Segments", "VanishingPoint", "find_vanishing_point", "refine_point"],
     "wheels": ["WheelParams", "Wheels", "detect_wheels"],
 })

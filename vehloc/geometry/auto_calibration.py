@@ -14,6 +14,7 @@ import numpy as np
 
 from vehloc.data.shapes import VehicleShape
 from vehloc.geometry.camera import PinholeCamera
+from vehloc.geometry.outcome import FailedEstimate
 
 NEWTON_ITERATIONS = 10
 TOLERANCE = 1e-4
@@ -21,42 +22,29 @@ START_SHRINKS = tuple(np.geomspace(0.1, 10.0, 11))
 """Where the shrink factor (the camera's assumed height over its true one) may start."""
 
 
-@dataclass(frozen=True)
-class NoCamera:
-    """Why no camera follows from the evidence. False in a condition."""
-
-    message: str
-
-    def __bool__(self) -> bool:
-        return False
-
-    def __str__(self) -> str:
-        return self.message
-
-
 def intrinsics(focal_px: float, pp_px: np.ndarray) -> np.ndarray:
     return np.array([[focal_px, 0.0, pp_px[0]], [0.0, focal_px, pp_px[1]], [0.0, 0.0, 1.0]])
 
 
-def focal_from_vanishing_points(vp1_h: np.ndarray, vp2_h: np.ndarray, pp_px: np.ndarray) -> float | NoCamera:
+def focal_from_vanishing_points(vp1_h: np.ndarray, vp2_h: np.ndarray, pp_px: np.ndarray) -> float | FailedEstimate:
     """The focal length (px) that makes the two homogeneous vanishing points those of perpendicular directions, the
-    principal point `pp_px` and the pixels square; a `NoCamera` when none does."""
+    principal point `pp_px` and the pixels square; a `FailedEstimate` when none does."""
     a1, a2 = (np.asarray(v[:2], float) - v[2] * np.asarray(pp_px, float) for v in (vp1_h, vp2_h))
     w = float(vp1_h[2] * vp2_h[2])
     if abs(w) < 1e-15 * max(np.linalg.norm(a1) * np.linalg.norm(a2), 1e-300):
-        return NoCamera("a vanishing point is at infinity: the focal length cannot be told from the two")
+        return FailedEstimate("a vanishing point is at infinity: the focal length cannot be told from the two")
     focal_squared = -float(a1 @ a2) / w
     if not focal_squared > 0.0:
-        return NoCamera("the vanishing points are not those of two perpendicular road directions (no real focal length)")
+        return FailedEstimate("the vanishing points are not those of two perpendicular road directions (no real focal length)")
     return float(np.sqrt(focal_squared))
 
 
 def camera_from_vanishing_points(vp1_h: np.ndarray, vp2_h: np.ndarray, pp_px: np.ndarray, height_mm: float,
-                                 image_size_px: tuple[int, int]) -> PinholeCamera | NoCamera:
+                                 image_size_px: tuple[int, int]) -> PinholeCamera | FailedEstimate:
     """The camera `height_mm` above the road whose vanishing points of the road's along (`vp1_h`) and across
     (`vp2_h`) directions are those given (homogeneous px), in the automatic calibration's world frame."""
     focal = focal_from_vanishing_points(vp1_h, vp2_h, pp_px)
-    if isinstance(focal, NoCamera):
+    if isinstance(focal, FailedEstimate):
         return focal
     K = intrinsics(focal, pp_px)
     K_inv = np.linalg.inv(K)
@@ -100,11 +88,11 @@ def box_sides_px(points_px: np.ndarray) -> np.ndarray:
 
 
 def height_from_sides(camera: PinholeCamera, shape: VehicleShape, sides_px: np.ndarray, bottom_px: float,
-                      heading_deg: float) -> BoxScale | NoCamera:
+                      heading_deg: float) -> BoxScale | FailedEstimate:
     """The camera height at which the vehicle's `shape`, heading `heading_deg` along the road, has the vehicle's top
     row, left and right columns `sides_px` (as `box_sides_px`), by Newton's method on (centre, 1/scale) in the frame of
     `camera` (any height: the scene scales about the camera's foot), started from the road point under the middle of
-    the bottom row `bottom_px` and the best of a few shrink factors; a `NoCamera` when it does not converge."""
+    the bottom row `bottom_px` and the best of a few shrink factors; a `FailedEstimate` when it does not converge."""
     points_car = shape_points_car(shape, heading_deg)
     camera_height = float(camera.centre_mm[2])
     target = np.asarray(sides_px, dtype=float)
@@ -134,7 +122,7 @@ def height_from_sides(camera: PinholeCamera, shape: VehicleShape, sides_px: np.n
             bottom_gap = float(bottom_px - (pixels[:, 1].max() - 0.5))
             foot = camera.centre_mm[:2]
             return BoxScale(camera_height / unknowns[2], foot + (unknowns[:2] - foot) / unknowns[2], bottom_gap)
-    return NoCamera("no camera height puts the model's box where the vehicle's is")
+    return FailedEstimate("no camera height puts the model's box where the vehicle's is")
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,7 @@
 """Failures as values: a stage that cannot do its job returns a `NotPlaced` saying why, a machine-readable code
-and a sentence (as scikit-image's `FailedEstimation`), never an exception that ends the video. Exceptions stay
-for bad input and bugs."""
+and a sentence (as scikit-image's `FailedEstimation`), never an exception that ends the video; an estimate of the
+scene (a vanishing point, a camera) that the evidence cannot give is a `FailedEstimate` with its sentence.
+Exceptions stay for bad input and bugs."""
 
 from __future__ import annotations
 
@@ -30,6 +31,19 @@ class NotPlaced:
     `if not result:` reads as "if it failed"."""
 
     code: ReasonCode
+    message: str
+
+    def __bool__(self) -> bool:
+        return False
+
+    def __str__(self) -> str:
+        return self.message
+
+
+@dataclass(frozen=True)
+class FailedEstimate:
+    """Why the evidence gives no estimate (a vanishing point, a camera): a sentence. False in a condition."""
+
     message: str
 
     def __bool__(self) -> bool:

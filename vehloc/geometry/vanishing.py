@@ -1,6 +1,6 @@
 """Where many image segments meet: a vanishing point found robustly (RANSAC over pairs, then the weighted least
 squares of the angles of the consenting segments), in homogeneous pixels so that a point at infinity (parallel
-segments) is a value like any other. A set of segments that agrees on no point is a `NoVanishingPoint`, not an
+segments) is a value like any other. A set of segments that agrees on no point is a `FailedEstimate`, not an
 exception."""
 
 from __future__ import annotations
@@ -8,6 +8,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
+from vehloc.geometry.outcome import FailedEstimate
 
 REFINE_ITERATIONS = 5
 
@@ -69,19 +71,6 @@ class VanishingPoint:
         return np.full(2, np.inf) if self.at_infinity else self.point_h[:2] / self.point_h[2]
 
 
-@dataclass(frozen=True)
-class NoVanishingPoint:
-    """Why the segments give no vanishing point. False in a condition."""
-
-    message: str
-
-    def __bool__(self) -> bool:
-        return False
-
-    def __str__(self) -> str:
-        return self.message
-
-
 def _normaliser(points_px: np.ndarray) -> np.ndarray:
     """The similarity (3x3) taking the points' centre to 0 and their spread to about 1 (for conditioning)."""
     centre = points_px.mean(axis=0)
@@ -119,11 +108,11 @@ def refine_point(segments: Segments, point_h: np.ndarray) -> np.ndarray:
 
 
 def find_vanishing_point(segments: Segments, max_angle_deg: float, min_support: float, iterations: int = 1000,
-                         seed: int = 0) -> VanishingPoint | NoVanishingPoint:
-    """The point most of the segments' weight points at, within `max_angle_deg` each; a `NoVanishingPoint` when
+                         seed: int = 0) -> VanishingPoint | FailedEstimate:
+    """The point most of the segments' weight points at, within `max_angle_deg` each; a `FailedEstimate` when
     fewer than two segments, or less than `min_support` of their weight, agree on one."""
     if len(segments) < 2 or not np.any(segments.weights > 0):
-        return NoVanishingPoint(f"{len(segments)} segment(s): too few to meet anywhere")
+        return FailedEstimate(f"{len(segments)} segment(s): too few to meet anywhere")
     to_unit = _normaliser(segments.points_px)
     unit = Segments(segments.points_px @ to_unit[:2, :2].T + to_unit[:2, 2], segments.directions, segments.weights)
     lines = _lines(unit)
@@ -140,14 +129,14 @@ def find_vanishing_point(segments: Segments, max_angle_deg: float, min_support: 
         if score > best_score:
             best, best_score = point, score
     if best is None:
-        return NoVanishingPoint("the segments are all one line")
+        return FailedEstimate("the segments are all one line")
     for _ in range(3):
         inliers = unit.sin_to(best) < limit
         best = _refine(unit.subset(inliers), best)
     inliers = unit.sin_to(best) < limit
     support = float(unit.weights[inliers].sum() / unit.weights.sum())
     if support < min_support or inliers.sum() < 2:
-        return NoVanishingPoint(f"the segments agree on no point: at most {support:.0%} of their weight within "
+        return FailedEstimate(f"the segments agree on no point: at most {support:.0%} of their weight within "
                                 f"{max_angle_deg:g} deg of one")
     sines = unit.sin_to(best)[inliers]
     rms_deg = float(np.degrees(np.arcsin(np.sqrt(np.average(sines ** 2, weights=unit.weights[inliers])))))

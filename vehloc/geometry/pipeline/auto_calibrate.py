@@ -2,7 +2,7 @@
 straight paths of points on the moving vehicles, their straight edges and their tracks (with the crops the
 classifier votes on); the two vanishing points give the focal length and the road's orientation, and each vehicle
 whose model is recognised gives the camera's height at which that model's shape has its box (the scale). Too little
-traffic, or none moving straight, is a `NoCamera` saying so, never a wrong calibration."""
+traffic, or none moving straight, is a `FailedEstimate` saying so, never a wrong calibration."""
 
 from __future__ import annotations
 
@@ -17,7 +17,6 @@ from tqdm import tqdm
 from vehloc.config import check_choice, check_range, params_from_config
 from vehloc.data.shapes import VehicleShape
 from vehloc.geometry.auto_calibration import (
-    NoCamera,
     RobustScale,
     camera_at_height,
     camera_from_vanishing_points,
@@ -27,6 +26,7 @@ from vehloc.geometry.auto_calibration import (
 )
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.camera_calibration import CameraCalibration
+from vehloc.geometry.outcome import FailedEstimate
 from vehloc.geometry.pipeline.settings import LocalizeSettings
 from vehloc.geometry.pipeline.speed_files import benchmark_calibration
 from vehloc.geometry.pipeline.tracker import StoppedVehicleTracker, VehicleTrack
@@ -41,7 +41,7 @@ from vehloc.geometry.traffic_evidence import (
     road_line_candidates,
     sure_outline,
 )
-from vehloc.geometry.vanishing import NoVanishingPoint, Segments, VanishingPoint, find_vanishing_point, refine_point
+from vehloc.geometry.vanishing import Segments, VanishingPoint, find_vanishing_point, refine_point
 from vehloc.infer.classifier import VehicleClassifier
 
 SCALE_SOURCES = ("recognised", "mean_size")
@@ -289,7 +289,7 @@ def vehicle_height(track: VehicleTrack, outlines: dict[int, Outline], model: Veh
     for frame in picked:
         outline = outlines[frame]
         fit = height_from_sides(camera, model.shape, outline.sides_px, outline.bottom_px, heading)
-        if not isinstance(fit, NoCamera) and abs(fit.bottom_gap_px) <= params.max_bottom_gap_fraction * outline.height_px:
+        if not isinstance(fit, FailedEstimate) and abs(fit.bottom_gap_px) <= params.max_bottom_gap_fraction * outline.height_px:
             heights.append(fit.height_mm)
     if len(heights) < params.min_views:
         return None
@@ -365,7 +365,7 @@ def focal_sigma_px(along: Segments, across: Segments, vp1: VanishingPoint, vp2: 
         one = refine_point(inliers1.subset(rng.integers(0, len(inliers1), len(inliers1))), vp1.point_h)
         two = refine_point(inliers2.subset(rng.integers(0, len(inliers2), len(inliers2))), vp2.point_h)
         focal = focal_from_vanishing_points(one, two, pp_px)
-        if not isinstance(focal, NoCamera):
+        if not isinstance(focal, FailedEstimate):
             focals.append(focal)
     return float(np.std(focals)) if len(focals) >= 2 else float("inf")
 
@@ -378,29 +378,29 @@ def along_rms_px(along: Segments, vp1: VanishingPoint) -> float:
 
 
 def auto_calibrate(evidence: TrafficEvidence, model_of: ModelOfTrack, params: AutoCalibrationParams,
-                   border_margin_px: int) -> AutoCalibration | NoCamera:
-    """The camera from the gathered traffic: a `NoCamera` saying why when no vehicle moved straight, the edges agree
+                   border_margin_px: int) -> AutoCalibration | FailedEstimate:
+    """The camera from the gathered traffic: a `FailedEstimate` saying why when no vehicle moved straight, the edges agree
     on no second vanishing point, or fewer than `min_vehicles` vehicles could be scaled."""
     width, height = evidence.image_size_px
     pp = np.array(params.principal_point_px if params.principal_point_px is not None
                   else ((width - 1) / 2, (height - 1) / 2), dtype=float)
     motion_vp1 = find_vanishing_point(evidence.motion, params.motion_max_angle_deg, params.min_support)
-    if isinstance(motion_vp1, NoVanishingPoint):
-        return NoCamera(f"no vehicle seen moving straight ({len(evidence.motion)} straight point paths): {motion_vp1}")
+    if isinstance(motion_vp1, FailedEstimate):
+        return FailedEstimate(f"no vehicle seen moving straight ({len(evidence.motion)} straight point paths): {motion_vp1}")
     along, vp1, vp1_source = evidence.motion, motion_vp1, "motion"
     if params.road_lines:
         lines = road_line_candidates(evidence.background_bgr, motion_vp1.point_h, params.road_line_min_length_fraction,
                                      params.road_line_search_deg)
         lines_vp1 = find_vanishing_point(lines, params.road_line_max_angle_deg, 0.5) if len(lines) >= params.min_road_lines \
-            else NoVanishingPoint("too few road lines")
+            else FailedEstimate("too few road lines")
         if isinstance(lines_vp1, VanishingPoint) and lines_vp1.inliers.sum() >= params.min_road_lines:
             along, vp1, vp1_source = lines, lines_vp1, "road lines"
     across = across_candidates(evidence.edges, vp1.point_h, params.edge_min_angle_to_vp1_deg, params.edge_max_slope_deg)
     vp2 = find_vanishing_point(across, params.edge_max_angle_deg, params.min_support)
-    if isinstance(vp2, NoVanishingPoint):
-        return NoCamera(f"the vehicles' edges across the road give no second vanishing point ({len(across)} edges): {vp2}")
+    if isinstance(vp2, FailedEstimate):
+        return FailedEstimate(f"the vehicles' edges across the road give no second vanishing point ({len(across)} edges): {vp2}")
     unit = camera_from_vanishing_points(vp1.point_h, vp2.point_h, pp, params.nominal_height_mm, (width, height))
-    if isinstance(unit, NoCamera):
+    if isinstance(unit, FailedEstimate):
         return unit
     vehicles = []
     for track in evidence.tracks:
@@ -412,7 +412,7 @@ def auto_calibrate(evidence: TrafficEvidence, model_of: ModelOfTrack, params: Au
         if estimate is not None:
             vehicles.append(estimate)
     if len(vehicles) < params.min_vehicles:
-        return NoCamera(f"{len(vehicles)} vehicle(s) could be scaled by their model, {params.min_vehicles} needed "
+        return FailedEstimate(f"{len(vehicles)} vehicle(s) could be scaled by their model, {params.min_vehicles} needed "
                         f"(min_vehicles; {len(evidence.tracks)} tracked)")
     scale = combine_heights(np.array([v.height_mm for v in vehicles]), np.array([v.size_doubt for v in vehicles]))
     camera = camera_at_height(unit, scale.height_mm)

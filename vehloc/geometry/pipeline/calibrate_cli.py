@@ -17,7 +17,7 @@ from omegaconf import DictConfig, OmegaConf
 from vehloc.atomic import check_output_dir
 from vehloc.config import ConfigError, build_params, check_choice, check_range, config_dir
 from vehloc.errors import exit_on_error, hydra_main
-from vehloc.geometry.auto_calibration import NoCamera
+from vehloc.geometry.outcome import FailedEstimate
 from vehloc.geometry.calibration import CalibrationError, CalibrationParams
 from vehloc.geometry.markers import MarkerDetectionParams
 from vehloc.geometry.site import read_site
@@ -102,7 +102,7 @@ def run_auto(params: CalibrateParams, auto: AutoCalibrationParams, settings: Loc
     evidence = collect_traffic(params.video, auto, settings)
     model_of = recognised_models(classifier) if auto.scale_source == "recognised" else mean_size_model(classifier)
     result = auto_calibrate(evidence, model_of, auto, settings.pipeline.border_margin_px)
-    if isinstance(result, NoCamera):
+    if isinstance(result, FailedEstimate):
         raise CalibrationError(f"{params.video}: no automatic calibration: {result}")
     write_auto_calibration_files(result, evidence.background_bgr, out_dir, params.grid_step_mm,
                                  {"video": params.video, "model": params.model})
