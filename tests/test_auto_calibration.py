@@ -175,3 +175,26 @@ def test_calibrate_auto_checks_its_settings_first(overrides: list[str], fragment
     result = run_cli("vehloc-calibrate", *overrides, f"hydra.run.dir={tmp_path / 'out'}")
     assert_one_error(result, "vehloc-calibrate", fragment)
     assert not (tmp_path / "out" / "calibration.json").exists()
+
+
+def test_the_scale_sigma_of_a_calibration_file_reaches_the_speeds_sigma(tmp_path: Path) -> None:
+    import json
+
+    from vehloc.geometry.calibration import CalibrationError
+    from vehloc.geometry.camera_calibration import read_calibration
+    from vehloc.geometry.pipeline.track_speed import SpeedParams, TrackSpeeds
+
+    camera = CAMERAS["beside the road"]
+    content = {"homography_world_mm_to_image_px": camera.road_to_image().normalised_matrix.tolist(),
+               "image_size_px": [camera.width_px, camera.height_px], "rms_reprojection_px": 0.0,
+               "scale_sigma_fraction": 0.02}
+    (tmp_path / "calibration.json").write_text(json.dumps(content))
+    calibration = read_calibration(tmp_path / "calibration.json")
+    assert calibration.scale_sigma_fraction == 0.02
+    speeds = TrackSpeeds(None, calibration, SpeedParams.from_config(), 25.0, 1.0, 2.0)
+    path = np.array([[0.0, 20000.0], [0.0, 30000.0]])
+    assert speeds.scale_sigma_fraction(path) == pytest.approx(0.02)  # no reprojection error: the scale's alone
+    content["scale_sigma_fraction"] = -0.1
+    (tmp_path / "calibration.json").write_text(json.dumps(content))
+    with pytest.raises(CalibrationError, match="scale_sigma_fraction must be a finite number >= 0"):
+        read_calibration(tmp_path / "calibration.json")

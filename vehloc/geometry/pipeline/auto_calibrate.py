@@ -45,6 +45,7 @@ from vehloc.geometry.vanishing import Segments, VanishingPoint, find_vanishing_p
 from vehloc.infer.classifier import VehicleClassifier
 
 SCALE_SOURCES = ("recognised", "mean_size")
+ROAD_LINES_AGREEMENT = 0.9
 
 
 @dataclass(frozen=True)
@@ -377,6 +378,17 @@ def along_rms_px(along: Segments, vp1: VanishingPoint) -> float:
     return float(np.sqrt(np.average((inliers.sin_to(vp1.point_h) * inliers.weights / 2) ** 2)))
 
 
+def agrees_with_motion(motion: Segments, motion_vp1: VanishingPoint, lines_vp1: VanishingPoint,
+                       max_angle_deg: float) -> bool:
+    """Whether the road lines' point is one the traffic's motion agrees with: the paths within `max_angle_deg` of it
+    hold at least `ROAD_LINES_AGREEMENT` of the weight those of the motion's own point hold (lines of one lane line
+    only, its dashes, meet anywhere along it)."""
+    limit = np.sin(np.radians(max_angle_deg))
+    own = motion.weights[motion.sin_to(motion_vp1.point_h) < limit].sum()
+    theirs = motion.weights[motion.sin_to(lines_vp1.point_h) < limit].sum()
+    return bool(theirs >= ROAD_LINES_AGREEMENT * own)
+
+
 def auto_calibrate(evidence: TrafficEvidence, model_of: ModelOfTrack, params: AutoCalibrationParams,
                    border_margin_px: int) -> AutoCalibration | FailedEstimate:
     """The camera from the gathered traffic: a `FailedEstimate` saying why when no vehicle moved straight, the edges agree
@@ -393,7 +405,8 @@ def auto_calibrate(evidence: TrafficEvidence, model_of: ModelOfTrack, params: Au
                                      params.road_line_search_deg)
         lines_vp1 = find_vanishing_point(lines, params.road_line_max_angle_deg, 0.5) if len(lines) >= params.min_road_lines \
             else FailedEstimate("too few road lines")
-        if isinstance(lines_vp1, VanishingPoint) and lines_vp1.inliers.sum() >= params.min_road_lines:
+        if (isinstance(lines_vp1, VanishingPoint) and lines_vp1.inliers.sum() >= params.min_road_lines
+                and agrees_with_motion(evidence.motion, motion_vp1, lines_vp1, params.motion_max_angle_deg)):
             along, vp1, vp1_source = lines, lines_vp1, "road lines"
     across = across_candidates(evidence.edges, vp1.point_h, params.edge_min_angle_to_vp1_deg, params.edge_max_slope_deg)
     vp2 = find_vanishing_point(across, params.edge_max_angle_deg, params.min_support)
