@@ -36,10 +36,10 @@ from vehloc.geometry.pipeline.video import median_background, read_still, video_
 from vehloc.infer.classifier import VehicleClassifier
 
 MODES = (*CALIBRATION_MODES, "auto")
-FAR_VP2_WIDTHS = 10.0
+FAR_VP2_WIDTHS = 20.0
 """An automatic calibration whose second vanishing point is further than this many image widths from the image's
-centre is written with a warning (the rendered traffic's is 3-4 widths away, its focal length within about 1 %; the
-real highway clip's 29, its focal length a third off the marker calibration's)."""
+centre is written with a warning (the rendered set-ups' are 1.7-12.4 widths away, their focal lengths within 3.5 %;
+the real highway clip's 29, its focal length a third off the marker calibration's)."""
 
 
 @dataclass(frozen=True)
