@@ -111,3 +111,7 @@ def test_the_camera_calibrated_by_its_traffic_alone(run: dict[str, Path]) -> Non
     road = np.array([[0.0, y] for y in (14000.0, 26000.0, 38000.0)])
     back = result.camera.image_to_road(truth.road_to_image()(road))
     assert np.allclose(np.linalg.norm(np.diff(back, axis=0), axis=1), 12000.0, rtol=0.03)
+    # too few vehicles for the scale: refused with its reason, not a calibration
+    refused = auto_calibrate(evidence, recognised_models(TrueModelClassifier(MODEL_ID)),
+                             AutoCalibrationParams.from_config(min_vehicles=1000), settings.pipeline.border_margin_px)
+    assert not refused and f"{result.scale.vehicles} vehicle(s) could be scaled by their model, 1000 needed" in str(refused)
