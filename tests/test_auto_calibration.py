@@ -19,10 +19,11 @@ from vehloc.geometry.auto_calibration import (
     combine_heights,
     focal_from_vanishing_points,
     height_from_sides,
-    shape_points_car,
 )
 from vehloc.geometry.brno import vanishing_point_px
 from vehloc.geometry.camera import PinholeCamera
+from vehloc.geometry.model_fit import shape_points_world
+from vehloc.geometry.placement import VehicleBox
 from vehloc.geometry.traffic_evidence import FeatureParams, FeatureTracks
 from vehloc.geometry.outcome import FailedEstimate
 from vehloc.geometry.vanishing import Segments, VanishingPoint, find_vanishing_point
@@ -101,7 +102,7 @@ def test_the_camera_height_from_one_box_and_its_shape(name: str) -> None:
     truth = CAMERAS[name]
     shape = VehicleShape.cuboid(4600.0, 1800.0, 1450.0)
     centre, heading = np.array([1000.0, 28000.0]), -90.0
-    pixels = truth.project(shape_points_car(shape, heading) + [centre[0], centre[1], 0.0])
+    pixels = truth.project(shape_points_world(shape, VehicleBox(centre, heading, 0.0, 0.0)))
     top, left, right = box_sides_px(pixels)
     bottom = pixels[:, 1].max() - 0.5
     # the outline of whole pixels around the projected shape: its edges rounded, as a silhouette's

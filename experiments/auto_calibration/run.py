@@ -30,7 +30,6 @@ import pandas as pd
 
 from vehloc.atomic import write_bytes, write_text
 from vehloc.benchmark.oracle import catalog_metadata
-from vehloc.data.boxes import Box
 from vehloc.demo.table2_cases import calibrate_case, render_case, scene_spec
 from vehloc.geometry.auto_calibration import combine_heights
 from vehloc.geometry.outcome import FailedEstimate
@@ -90,15 +89,6 @@ class Case:
         return f"{self.scene}_seed{self.seed}"
 
 
-def box_iou(a: Box, b: Box) -> float:
-    width = min(a.x1, b.x1) - max(a.x0, b.x0)
-    height = min(a.y1, b.y1) - max(a.y0, b.y0)
-    if width <= 0 or height <= 0:
-        return 0.0
-    inter = width * height
-    return inter / (a.area_px + b.area_px - inter)
-
-
 def true_models(truth: SceneTruth) -> ModelOfTrack:
     """The oracle: each track the model of the scene's car whose (exclusive) boxes it overlaps by IoU > 0.5 in most of
     its frames (at least three); None when no car is."""
@@ -109,7 +99,7 @@ def true_models(truth: SceneTruth) -> ModelOfTrack:
         for frame, box in zip(track.frames, track.boxes):
             for index, car in enumerate(truth.cars):
                 if frame < len(car.boxes) and car.boxes[frame] is not None:
-                    if box_iou(box, car.boxes[frame]) > 0.5:
+                    if box.iou(car.boxes[frame]) > 0.5:
                         votes[index] += 1
         if votes.max(initial=0) < 3:
             return None
@@ -158,23 +148,26 @@ def calibration_row(result: AutoCalibration | FailedEstimate, truth: SceneTruth,
             **distance_errors(truth.camera, result.camera, lines_y_mm)}
 
 
-def vehicles_needed(result: AutoCalibration, truth: SceneTruth, seed: int = 0) -> list[dict[str, object]]:
-    """The scale from random subsets of n of the vehicles (n in VEHICLE_COUNTS, as far as there are): the spread of
-    their heights' error and the mean sigma they report (%)."""
-    rng = np.random.default_rng(seed)
-    heights = np.array([v.height_mm for v in result.vehicles])
-    doubts = np.array([v.size_doubt for v in result.vehicles])
+def subset_scales(relative: np.ndarray, doubts: np.ndarray, rng: np.random.Generator) -> list[dict[str, object]]:
+    """The scale from random subsets of n of the vehicles (n in VEHICLE_COUNTS, as far as there are), their heights
+    relative to the true one: the RMS and spread of the subsets' error and the mean 1-sigma they report (%)."""
     rows = []
     for n in VEHICLE_COUNTS:
-        if n > len(heights):
+        if n > len(relative):
             continue
-        combined = [combine_heights(heights[pick], doubts[pick])
-                    for pick in (rng.choice(len(heights), n, replace=False) for _ in range(SUBSETS))]
-        errors = np.array([c.height_mm / truth.camera.centre_mm[2] - 1.0 for c in combined]) * 100
+        combined = [combine_heights(relative[pick], doubts[pick])
+                    for pick in (rng.choice(len(relative), n, replace=False) for _ in range(SUBSETS))]
+        errors = 100 * (np.array([c.height_mm for c in combined]) - 1.0)
         rows.append({"vehicles": n, "error_rms_percent": float(np.sqrt(np.mean(errors ** 2))),
                      "error_std_percent": float(np.std(errors)),
                      "reported_sigma_percent": float(np.mean([100 * c.sigma_fraction for c in combined]))})
     return rows
+
+
+def vehicles_needed(result: AutoCalibration, truth: SceneTruth, seed: int = 0) -> list[dict[str, object]]:
+    """`subset_scales` of one case's vehicles."""
+    relative = np.array([v.height_mm for v in result.vehicles]) / truth.camera.centre_mm[2]
+    return subset_scales(relative, np.array([v.size_doubt for v in result.vehicles]), np.random.default_rng(seed))
 
 
 def measure_speeds(case: Case, folder: Path, name: str, calibration: CameraCalibration,
@@ -190,9 +183,8 @@ def measure_speeds(case: Case, folder: Path, name: str, calibration: CameraCalib
 
 
 def pooled_needed(out: Path, table: pd.DataFrame, seed: int = 0) -> pd.DataFrame:
-    """The scale from n vehicles drawn from the held-out set-ups' pooled vehicles (each vehicle's height relative to its
-    scene's true camera height): per source and n, the RMS error of the subsets' median and the mean 1-sigma
-    they report (%)."""
+    """`subset_scales` per source of the held-out set-ups' pooled vehicles (each vehicle's height relative to its
+    scene's true camera height)."""
     rng = np.random.default_rng(seed)
     rows = []
     for source in SOURCES:
@@ -205,17 +197,8 @@ def pooled_needed(out: Path, table: pd.DataFrame, seed: int = 0) -> pd.DataFrame
             true_height = read_scene_truth(out / case / "scene" / "ground_truth.json").camera.centre_mm[2]
             relative += list(vehicles["camera_height_mm"] / true_height)
             doubts += list(vehicles["size_doubt"])
-        relative, doubts = np.array(relative), np.array(doubts)
-        for n in VEHICLE_COUNTS:
-            if n > len(relative):
-                continue
-            combined = [combine_heights(relative[pick], doubts[pick])
-                        for pick in (rng.choice(len(relative), n, replace=False) for _ in range(SUBSETS))]
-            errors = 100 * (np.array([c.height_mm for c in combined]) - 1.0)
-            rows.append({"source": source, "vehicles": n, "pooled_from": len(relative),
-                         "error_rms_percent": float(np.sqrt(np.mean(errors ** 2))),
-                         "error_std_percent": float(np.std(errors)),
-                         "reported_sigma_percent": float(np.mean([100 * c.sigma_fraction for c in combined]))})
+        rows += [{"source": source, "pooled_from": len(relative), **row}
+                 for row in subset_scales(np.array(relative), np.array(doubts), rng)]
     return pd.DataFrame(rows)
 
 

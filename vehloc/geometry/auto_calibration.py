@@ -14,16 +14,14 @@ import numpy as np
 
 from vehloc.data.shapes import VehicleShape
 from vehloc.geometry.camera import PinholeCamera
+from vehloc.geometry.model_fit import shape_points_world
 from vehloc.geometry.outcome import FailedEstimate
+from vehloc.geometry.placement import VehicleBox
 
 NEWTON_ITERATIONS = 10
 TOLERANCE = 1e-4
 START_SHRINKS = tuple(np.geomspace(0.1, 10.0, 11))
 """Where the shrink factor (the camera's assumed height over its true one) may start."""
-
-
-def intrinsics(focal_px: float, pp_px: np.ndarray) -> np.ndarray:
-    return np.array([[focal_px, 0.0, pp_px[0]], [0.0, focal_px, pp_px[1]], [0.0, 0.0, 1.0]])
 
 
 def focal_from_vanishing_points(vp1_h: np.ndarray, vp2_h: np.ndarray, pp_px: np.ndarray) -> float | FailedEstimate:
@@ -35,7 +33,8 @@ def focal_from_vanishing_points(vp1_h: np.ndarray, vp2_h: np.ndarray, pp_px: np.
         return FailedEstimate("a vanishing point is at infinity: the focal length cannot be told from the two")
     focal_squared = -float(a1 @ a2) / w
     if not focal_squared > 0.0:
-        return FailedEstimate("the vanishing points are not those of two perpendicular road directions (no real focal length)")
+        return FailedEstimate("the vanishing points are not those of two perpendicular road directions "
+                              "(no real focal length)")
     return float(np.sqrt(focal_squared))
 
 
@@ -46,7 +45,7 @@ def camera_from_vanishing_points(vp1_h: np.ndarray, vp2_h: np.ndarray, pp_px: np
     focal = focal_from_vanishing_points(vp1_h, vp2_h, pp_px)
     if isinstance(focal, FailedEstimate):
         return focal
-    K = intrinsics(focal, pp_px)
+    K = PinholeCamera.intrinsics(focal, *image_size_px, principal_px=(float(pp_px[0]), float(pp_px[1])))
     K_inv = np.linalg.inv(K)
     along = K_inv @ np.asarray(vp1_h, float)
     along = along / np.linalg.norm(along) * (1.0 if along[2] >= 0 else -1.0)
@@ -55,21 +54,14 @@ def camera_from_vanishing_points(vp1_h: np.ndarray, vp2_h: np.ndarray, pp_px: np
     up = np.cross(along, across / np.linalg.norm(across))
     up = up if up[1] < 0 else -up  # the road's normal points up the image
     right = np.cross(along, up)
-    R = np.column_stack([right, along, up])
-    t = -R @ np.array([0.0, 0.0, height_mm])
-    return PinholeCamera(K, R, t, *image_size_px)
+    return camera_at_height(PinholeCamera(K, np.column_stack([right, along, up]), np.zeros(3), *image_size_px),
+                            height_mm)
 
 
 def camera_at_height(camera: PinholeCamera, height_mm: float) -> PinholeCamera:
     """The same camera moved up or down its vertical to `height_mm` above the road (the scene scaled)."""
     return PinholeCamera(camera.K, camera.R, -camera.R @ np.array([0.0, 0.0, height_mm]), camera.width_px,
                          camera.height_px)
-
-
-def shape_points_car(shape: VehicleShape, heading_deg: float) -> np.ndarray:
-    """The shape's points (M, 3 mm) turned to `heading_deg`, around its footprint centre."""
-    c, s = np.cos(np.radians(heading_deg)), np.sin(np.radians(heading_deg))
-    return shape.points_mm @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]).T
 
 
 @dataclass(frozen=True)
@@ -93,7 +85,7 @@ def height_from_sides(camera: PinholeCamera, shape: VehicleShape, sides_px: np.n
     row, left and right columns `sides_px` (as `box_sides_px`), by Newton's method on (centre, 1/scale) in the frame of
     `camera` (any height: the scene scales about the camera's foot), started from the road point under the middle of
     the bottom row `bottom_px` and the best of a few shrink factors; a `FailedEstimate` when it does not converge."""
-    points_car = shape_points_car(shape, heading_deg)
+    points_car = shape_points_world(shape, VehicleBox(np.zeros(2), heading_deg, 0.0, 0.0))  # around its centre
     camera_height = float(camera.centre_mm[2])
     target = np.asarray(sides_px, dtype=float)
     bottom_road = camera.image_to_road(np.array([[(target[1] + target[2]) / 2, bottom_px]]))[0]

@@ -71,11 +71,13 @@ class VanishingPoint:
         return np.full(2, np.inf) if self.at_infinity else self.point_h[:2] / self.point_h[2]
 
 
-def _normaliser(points_px: np.ndarray) -> np.ndarray:
-    """The similarity (3x3) taking the points' centre to 0 and their spread to about 1 (for conditioning)."""
-    centre = points_px.mean(axis=0)
-    spread = max(float(np.sqrt(((points_px - centre) ** 2).sum(axis=1).mean())), 1e-9)
-    return np.array([[1 / spread, 0, -centre[0] / spread], [0, 1 / spread, -centre[1] / spread], [0, 0, 1]])
+def _in_unit_frame(segments: Segments) -> tuple[np.ndarray, Segments]:
+    """The similarity (3x3) taking the segments' points' centre to 0 and their spread to about 1 (for conditioning),
+    and the segments in that frame."""
+    centre = segments.points_px.mean(axis=0)
+    spread = max(float(np.sqrt(((segments.points_px - centre) ** 2).sum(axis=1).mean())), 1e-9)
+    to_unit = np.array([[1 / spread, 0, -centre[0] / spread], [0, 1 / spread, -centre[1] / spread], [0, 0, 1]])
+    return to_unit, Segments((segments.points_px - centre) / spread, segments.directions, segments.weights)
 
 
 def _lines(segments: Segments) -> np.ndarray:
@@ -101,8 +103,7 @@ def _refine(segments: Segments, point_h: np.ndarray) -> np.ndarray:
 
 def refine_point(segments: Segments, point_h: np.ndarray) -> np.ndarray:
     """The homogeneous point (px, unit norm) minimising the segments' weighted squared sines to it, from `point_h`."""
-    to_unit = _normaliser(segments.points_px)
-    unit = Segments(segments.points_px @ to_unit[:2, :2].T + to_unit[:2, 2], segments.directions, segments.weights)
+    to_unit, unit = _in_unit_frame(segments)
     refined = np.linalg.inv(to_unit) @ _refine(unit, to_unit @ np.asarray(point_h, dtype=float))
     return refined / np.linalg.norm(refined)
 
@@ -113,8 +114,7 @@ def find_vanishing_point(segments: Segments, max_angle_deg: float, min_support: 
     fewer than two segments, or less than `min_support` of their weight, agree on one."""
     if len(segments) < 2 or not np.any(segments.weights > 0):
         return FailedEstimate(f"{len(segments)} segment(s): too few to meet anywhere")
-    to_unit = _normaliser(segments.points_px)
-    unit = Segments(segments.points_px @ to_unit[:2, :2].T + to_unit[:2, 2], segments.directions, segments.weights)
+    to_unit, unit = _in_unit_frame(segments)
     lines = _lines(unit)
     rng = np.random.default_rng(seed)
     probability = unit.weights / unit.weights.sum()
@@ -137,7 +137,7 @@ def find_vanishing_point(segments: Segments, max_angle_deg: float, min_support: 
     support = float(unit.weights[inliers].sum() / unit.weights.sum())
     if support < min_support or inliers.sum() < 2:
         return FailedEstimate(f"the segments agree on no point: at most {support:.0%} of their weight within "
-                                f"{max_angle_deg:g} deg of one")
+                              f"{max_angle_deg:g} deg of one")
     sines = unit.sin_to(best)[inliers]
     rms_deg = float(np.degrees(np.arcsin(np.sqrt(np.average(sines ** 2, weights=unit.weights[inliers])))))
     point_h = np.linalg.inv(to_unit) @ best
