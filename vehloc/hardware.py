@@ -11,8 +11,10 @@ from pathlib import Path
 
 # x86 flags of native bfloat16 arithmetic (AVX-512 BF16, AMX tiles) and the Arm feature of the same
 NATIVE_BF16_FLAGS = ("avx512_bf16", "amx_bf16", "bf16")
+# x86 flags of 8-bit integer dot products (VNNI, AMX) and the Arm dot-product features: where INT8 inference pays
+INT8_DOT_PRODUCT_FLAGS = ("avx512_vnni", "avx_vnni", "amx_int8", "asimddp", "i8mm")
 # flags worth printing beside a timing: the vector width and the low-precision units
-REPORTED_FLAGS = ("avx2", "fma", "avx512f", "avx512_vnni", "avx512_bf16", "amx_tile", "amx_bf16", "amx_int8",
+REPORTED_FLAGS = ("avx2", "fma", "avx512f", "avx512_vnni", "avx_vnni", "avx512_bf16", "amx_tile", "amx_bf16", "amx_int8",
                   "asimd", "sve", "bf16")
 
 
@@ -31,6 +33,12 @@ class CpuInfo:
         return any(flag in self.flags for flag in NATIVE_BF16_FLAGS)
 
     @property
+    def int8_dot_product(self) -> bool:
+        """True when the CPU has 8-bit integer dot products (VNNI, AMX, Arm dot product): INT8 models run on
+        them; without, x86's u8 x s8 multiply can saturate (onnxruntime's `reduce_range`) and gains little."""
+        return any(flag in self.flags for flag in INT8_DOT_PRODUCT_FLAGS)
+
+    @property
     def reported_flags(self) -> list[str]:
         return [flag for flag in REPORTED_FLAGS if flag in self.flags]
 
@@ -38,7 +46,8 @@ class CpuInfo:
         """One line: model name, cores, the flags that matter and whether bf16 is native."""
         flags = " ".join(self.reported_flags) or "none of " + " ".join(REPORTED_FLAGS)
         bf16 = "native bf16" if self.native_bf16 else "no native bf16"
-        return f"{self.model_name} ({self.logical_cores} logical cores; {flags}; {bf16})"
+        vnni = "int8 dot products (VNNI)" if self.int8_dot_product else "no int8 dot products (no VNNI)"
+        return f"{self.model_name} ({self.logical_cores} logical cores; {flags}; {bf16}; {vnni})"
 
 
 def parse_cpuinfo(text: str) -> tuple[str, frozenset[str]]:

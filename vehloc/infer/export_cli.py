@@ -1,8 +1,9 @@
-"""`vehloc-export ckpt_path=... [output=...]`: export a classifier checkpoint to a checked ONNX file.
+"""`vehloc-export ckpt_path=... [output=...] [quantize=int8]`: export a classifier checkpoint to a checked ONNX
+file, and with `quantize=int8` an INT8 model beside it (`onnx_path=model.onnx quantize=int8`: of an earlier export).
 
-Before any work the settings are checked, and the output must be writable (not a folder, in a folder that can
-be written); then the checkpoint and the data are read; the file replaces the output only when it has passed
-every check, so a failed or interrupted export leaves an earlier file as it was."""
+Before any work the settings are checked, and the outputs must be writable (not a folder, in a folder that can
+be written, never one of the inputs); then the checkpoint and the data are read; each file replaces its output
+only when it has passed every check, so a failed or interrupted export leaves an earlier file as it was."""
 
 from __future__ import annotations
 
@@ -12,8 +13,9 @@ from pathlib import Path
 from omegaconf import DictConfig, OmegaConf
 
 from vehloc.atomic import check_output_file
-from vehloc.config import build_params, check_range, config_dir
+from vehloc.config import build_params, check_choice, check_range, config_dir
 from vehloc.errors import VehlocError, exit_on_error, hydra_main
+from vehloc.infer.quantize import QUANTIZE_MODES, Int8Settings, default_int8_output
 
 MIN_OPSET, MAX_OPSET = 17, 23
 """The ONNX opsets vehloc exports: from 17 (LayerNormalization) to the newest torch.onnx writes."""
@@ -23,18 +25,22 @@ MIN_OPSET, MAX_OPSET = 17, 23
 class ExportParams:
     """The settings of `conf/export.yaml`."""
 
-    ckpt_path: str
+    ckpt_path: str | None
     output: str | None
     data_root: str
     parity_images: int
     opset: int
     tolerance: float
+    quantize: str
+    int8: Int8Settings
+    onnx_path: str | None = None
     task_name: str = "export"
 
     def __post_init__(self) -> None:
         check_range("parity_images", self.parity_images, 1)
         check_range("opset", self.opset, MIN_OPSET, MAX_OPSET)
         check_range("tolerance", self.tolerance, 0.0, low_open=True)
+        check_choice("quantize", self.quantize, QUANTIZE_MODES)
 
 
 def default_output(checkpoint_path: Path) -> Path:
@@ -46,38 +52,94 @@ def default_output(checkpoint_path: Path) -> Path:
 
 def check_export_config(cfg: DictConfig) -> ExportParams:
     """The export's settings, checked (ConfigError naming the first bad one)."""
-    if OmegaConf.is_missing(cfg, "ckpt_path") or not cfg.ckpt_path:
-        raise VehlocError("ckpt_path=PATH is required: the checkpoint to export")
     values = {k: v for k, v in OmegaConf.to_container(cfg, resolve=True).items() if k not in ("paths", "hydra")}
-    return build_params(ExportParams, values, "")
+    params = build_params(ExportParams, values, "")
+    if bool(params.ckpt_path) == bool(params.onnx_path):
+        raise VehlocError("ckpt_path=PATH is required: the checkpoint to export (or onnx_path=MODEL.onnx "
+                          "quantize=int8 to quantize an earlier export)" if not params.onnx_path else
+                          "give ckpt_path= or onnx_path=, not both")
+    if params.ckpt_path and Path(params.ckpt_path).suffix.lower() == ".onnx":
+        raise VehlocError(f"ckpt_path {params.ckpt_path}: is an ONNX model, not a checkpoint; to quantize an "
+                          f"exported model: onnx_path={params.ckpt_path} quantize=int8")
+    if params.onnx_path and params.quantize == "none":
+        raise VehlocError(f"onnx_path {params.onnx_path}: an exported model is only quantized here; add quantize=int8")
+    return params
+
+
+def output_paths(params: ExportParams) -> tuple[Path | None, Path | None]:
+    """The fp32 model's output (None when quantizing an earlier export) and the INT8 one's (None without
+    quantize=int8), each checked writable and neither an input nor the other."""
+    inputs = [Path(p).resolve() for p in (params.ckpt_path, params.onnx_path) if p]
+    fp32 = None
+    if params.ckpt_path:
+        fp32 = Path(params.output) if params.output else default_output(Path(params.ckpt_path))
+        check_output_file(fp32, "output")
+    int8 = None
+    if params.quantize == "int8":
+        int8 = Path(params.int8.output) if params.int8.output else default_int8_output(fp32 or Path(params.onnx_path))
+        check_output_file(int8, "int8.output")
+    for name, path in (("output", fp32), ("int8.output", int8)):
+        if path is not None and path.resolve() in inputs:
+            raise VehlocError(f"{name} {path}: is the input this export reads; write the model elsewhere")
+    if fp32 is not None and int8 is not None and fp32.resolve() == int8.resolve():
+        raise VehlocError(f"int8.output {int8}: is the fp32 model's output too; give the INT8 model its own file")
+    return fp32, int8
 
 
 @exit_on_error("vehloc-export")
 def _run(cfg: DictConfig) -> None:
     params = check_export_config(cfg)
-    checkpoint_path = Path(params.ckpt_path)
-    output = Path(params.output) if params.output else default_output(checkpoint_path)
-    check_output_file(output, "output")
+    fp32_output, int8_output = output_paths(params)
 
     from vehloc.data.compcars import read_compcars
-    from vehloc.data.shapes import SHAPES_FILE, read_shapes
-    from vehloc.train.checkpoints import read_checkpoint
 
-    read_checkpoint(checkpoint_path)  # a missing or foreign checkpoint is named before the data is read
-    test = read_compcars(params.data_root).test
-    if not test:
+    if params.ckpt_path:
+        from vehloc.train.checkpoints import read_checkpoint
+
+        read_checkpoint(Path(params.ckpt_path))  # a missing or foreign checkpoint is named before the data is read
+    else:
+        from vehloc.infer.classifier import VehicleClassifier
+
+        VehicleClassifier.from_onnx(params.onnx_path, ["CPUExecutionProvider"])  # named before the data is read
+    data = read_compcars(params.data_root)
+    if not data.test:
         raise VehlocError(f"data_root {params.data_root}: the test split is empty; the parity check needs images")
-    step = max(1, len(test) // params.parity_images)
+    if int8_output is not None and not data.train:
+        raise VehlocError(f"data_root {params.data_root}: the train split is empty; INT8 calibration needs images")
+    parity = data.test[:: max(1, len(data.test) // params.parity_images)][: params.parity_images]
+    fp32_model = Path(params.onnx_path) if params.onnx_path else _export(params, fp32_output, parity)
+    if int8_output is not None:
+        _quantize(params, fp32_model, int8_output, data, parity)
+
+
+def _export(params: ExportParams, output: Path, parity: list) -> Path:
+    from vehloc.data.shapes import SHAPES_FILE, read_shapes
+
     shapes_path = Path(params.data_root) / SHAPES_FILE
     shapes = read_shapes(shapes_path) if shapes_path.is_file() else None
     from vehloc.train.export import export_checkpoint  # torch.onnx and Lightning: after every input is checked
 
-    report = export_checkpoint(checkpoint_path, output, test[::step][: params.parity_images], params.opset,
-                               params.tolerance, shapes)
+    report = export_checkpoint(Path(params.ckpt_path), output, parity, params.opset, params.tolerance, shapes)
     print(
         f"wrote {report.output} (opset {report.opset}); parity on {report.parity_images} test images of "
         f"{params.data_root}: max |logit diff| {report.max_abs_logit_diff:.2e}, same top-1 on "
         f"{report.top1_agreement:.0%}" + (f"; with the shapes of {shapes_path}" if shapes else "")
+    )
+    return output
+
+
+def _quantize(params: ExportParams, fp32_model: Path, output: Path, data, parity: list) -> None:
+    from vehloc.infer.quantize import quantize_classifier
+
+    settings = params.int8
+    calibration = data.train[:: max(1, len(data.train) // settings.calibration_images)][: settings.calibration_images]
+    report = quantize_classifier(fp32_model, output, calibration, parity, data.test, settings, params.data_root)
+    fp32_test, int8_test = report.test
+    print(
+        f"wrote {report.output} (INT8, reduce_range {str(report.reduce_range).lower()}: {report.reduce_range_reason}; "
+        f"calibrated on {report.calibration_images} training images); same top-1 as the fp32 model on "
+        f"{report.parity_agreement:.0%} of {len(parity)} parity images; test split ({len(data.test)} images): top-1 "
+        f"fp32 {fp32_test.top1_pct:.2f} %, INT8 {int8_test.top1_pct:.2f} % (loss {report.top1_loss_pts:+.2f} points)"
     )
 
 

@@ -65,6 +65,11 @@ class ModelMetadata:
         return VehicleShape.cuboid(spec.length_mm, spec.width_mm, spec.height_mm)
 
     @property
+    def precision(self) -> str:
+        """The weights' and activations' precision: "fp32", or what `vehloc-export quantize=` made (notes)."""
+        return self.notes.get("precision", "fp32")
+
+    @property
     def dims_mm(self) -> np.ndarray:
         """(C, 3) length, width, height of every class, in mm."""
         return np.array([c.dims_mm for c in self.classes], dtype=float).reshape(-1, 3)
