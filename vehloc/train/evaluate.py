@@ -1,5 +1,6 @@
 """`vehloc-eval ckpt_path=...`: test a trained classifier (Hydra config `conf/eval.yaml`) and write Table 1,
-the accuracy and dimension-error tables, the most-confused pairs and the confusion matrix into the run folder.
+the accuracy and dimension-error tables, the most-confused pairs and the confusion matrix into the run folder;
+`vehloc-eval onnx_path=model.onnx` the same of an exported model (fp32 or INT8) through onnxruntime.
 
 Before anything is computed, the settings are checked, the checkpoint is read (with `weights_only=True`) and
 its classes are compared with the data's, model ids and names: a checkpoint scored against another data set
@@ -24,6 +25,10 @@ def evaluate(cfg: DictConfig) -> tuple[dict[str, float], dict[str, Any]]:
     The test images go through the checkpoint's own preprocessing (ROI enlargement, resize, input size:
     those it was trained with), whatever the data config says."""
     data = check_eval_config(cfg)
+    if cfg.get("onnx_path"):
+        from vehloc.train.onnx_eval import evaluate_onnx
+
+        return evaluate_onnx(cfg.onnx_path, data, Path(cfg.paths.output_dir) / "table1"), {"cfg": cfg}
     from vehloc.train.checkpoints import check_classes, chosen_on_test_split, preprocessing_of, read_checkpoint
     from vehloc.train.classes import class_info, read_dataset, read_specs
 

@@ -300,8 +300,13 @@ def check_train_config(cfg: DictConfig) -> tuple[DataParams, ModelParams]:
 def check_eval_config(cfg: DictConfig) -> DataParams:
     """Every setting `vehloc-eval` relies on (the network and its preprocessing come from the checkpoint),
     checked before any work; ConfigError naming the first bad one."""
-    if OmegaConf.is_missing(cfg, "ckpt_path") or not cfg.get("ckpt_path"):
-        raise ConfigError("ckpt_path=PATH is required: the checkpoint to evaluate")
+    onnx_path = cfg.get("onnx_path")
+    if onnx_path is not None and not isinstance(onnx_path, str):
+        raise ConfigError(f"onnx_path: expected the path of an ONNX model, got {onnx_path!r}")
+    has_checkpoint = not OmegaConf.is_missing(cfg, "ckpt_path") and bool(cfg.get("ckpt_path"))
+    if has_checkpoint == bool(onnx_path):
+        raise ConfigError("give ckpt_path= or onnx_path=, not both" if onnx_path else
+                          "ckpt_path=PATH is required: the checkpoint to evaluate (or onnx_path=MODEL.onnx: an export)")
     check_top_level(cfg)
     data = check_data(cfg)
     check_trainer(cfg)
