@@ -159,6 +159,9 @@ EVAL_OTHER = {
     "root_missing": (["ckpt_path={good}", "data.root={tmp}/none"], ["data.root", "none: no such folder"]),
     "root_is_a_file": (["ckpt_path={good}", "data.root={good}"], ["good.ckpt: is a file, not a folder"]),
     "specs_latin1": (["ckpt_path={good}", "data.specs_csv={tmp}/latin1.csv"], ["latin1.csv: not UTF-8 text: byte 0xe9"]),
+    "checkpoint_and_onnx": (["ckpt_path={good}", "onnx_path={tmp}/model.onnx"], ["give ckpt_path= or onnx_path=, not both"]),
+    "onnx_not_a_model": (["onnx_path={good}"], ["good.ckpt: not a loadable ONNX model"]),
+    "neither": ([], ["ckpt_path=PATH is required", "onnx_path="]),
 }
 
 
@@ -248,6 +251,15 @@ EXPORT_CASES = {
     "checkpoint_missing_value": (["ckpt_path=???"], ["ckpt_path=PATH is required"]),
     "checkpoint_absent": (["ckpt_path={tmp}/none.ckpt"], ["none.ckpt: no such checkpoint file"]),
     "data_root_missing": (["data_root={tmp}/none"], ["none: 1 problem(s) in CompCars data"]),
+    "quantize_int4": (["quantize=int4"], ["quantize: expected one of none, int8, got 'int4'"]),
+    "calibration_images_0": (["quantize=int8", "int8.calibration_images=0"],
+                             ["int8.calibration_images: must be >= 1, got 0"]),
+    "int8_model_as_checkpoint": (["ckpt_path={tmp}/model.int8.onnx"],
+                                 ["model.int8.onnx: is an ONNX model, not a checkpoint", "onnx_path="]),
+    "output_is_the_checkpoint": (["output={tmp}/good.ckpt"], ["output", "good.ckpt: is the input this export reads"]),
+    "onnx_path_without_quantize": (["ckpt_path=null", "onnx_path={tmp}/model.onnx"], ["add quantize=int8"]),
+    "int8_output_is_the_input": (["ckpt_path=null", "onnx_path={tmp}/model.onnx", "quantize=int8",
+                                  "int8.output={tmp}/model.onnx"], ["int8.output", "is the input this export reads"]),
 }
 
 

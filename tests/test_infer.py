@@ -233,3 +233,94 @@ def test_flip_average_is_inside_the_exported_graph(exported: tuple[Path, str], t
     logits = session.run(["logits"], {name: inputs})[0]
     mirrored = session.run(["logits"], {name: np.ascontiguousarray(inputs[..., ::-1])})[0]
     np.testing.assert_allclose(mirrored, logits, atol=1e-4)
+
+
+@pytest.fixture(scope="module")
+def quantized(trained: tuple[Path, Path], exported: tuple[Path, str]) -> tuple[Path, str, bytes]:
+    """The exported model quantized by `vehloc-export onnx_path=... quantize=int8`: (INT8 file, stdout, the fp32
+    file's bytes before)."""
+    root, _ = trained
+    fp32 = exported[0]
+    before = fp32.read_bytes()
+    run = subprocess.run(
+        [sys.executable, "-m", "vehloc.infer.export_cli", f"onnx_path={fp32}", "quantize=int8", f"data_root={root}",
+         "parity_images=24", "int8.calibration_images=40", "int8.min_top1_agreement=0.5",
+         f"hydra.run.dir={fp32.parent / 'run_int8'}"],
+        capture_output=True, text=True,
+    )
+    assert run.returncode == 0, run.stderr
+    return fp32.with_name("model.int8.onnx"), run.stdout, before
+
+
+def test_int8_export_is_checked_and_carries_how_it_was_made(quantized: tuple[Path, str, bytes],
+                                                             exported: tuple[Path, str]) -> None:
+    """The INT8 file lands beside the fp32 one (left as it was), with the fp32 metadata plus what was quantized,
+    how, and the figures it was checked on; its stdout states the test split's accuracy of both."""
+    int8_path, stdout, fp32_before = quantized
+    assert exported[0].read_bytes() == fp32_before
+    fp32, int8 = VehicleClassifier.from_onnx(exported[0]), VehicleClassifier.from_onnx(int8_path)
+    assert fp32.metadata.precision == "fp32" and int8.metadata.precision == "int8"
+    assert int8.classes == fp32.classes and int8.metadata.preprocessing == fp32.metadata.preprocessing
+    notes = int8.metadata.notes
+    assert notes["fp32_model_sha256"] == file_sha256(exported[0]) and notes["test_images"] == "24"
+    assert "per channel" in notes["quantization"] and notes["calibration"].startswith("40 training images")
+    ops = {node.op_type for node in onnx.load(str(int8_path)).graph.node}
+    assert {"QuantizeLinear", "DequantizeLinear"} <= ops
+    found = re.search(r"top-1 fp32 ([\d.]+) %, INT8 ([\d.]+) % \(loss ([+-][\d.]+) points\)", stdout)
+    assert found, stdout
+    assert (found[1], found[2]) == (notes["test_top1_fp32_pct"], notes["test_top1_int8_pct"])
+    assert float(found[3]) == pytest.approx(float(found[1]) - float(found[2]), abs=0.011)
+    # the INT8 model is a different computation (not a copy) that still ranks like the fp32 one
+    samples = read_compcars(trained_root(exported)).test
+    p32 = fp32.probabilities([s.image_path for s in samples], [s.box for s in samples])
+    p8 = int8.probabilities([s.image_path for s in samples], [s.box for s in samples])
+    assert 1e-6 < np.max(np.abs(p32 - p8)) < 0.2
+
+
+def trained_root(exported: tuple[Path, str]) -> Path:
+    """The data root the exported model was checked on (from its export's command line, in its run folder)."""
+    overrides = (exported[0].parent / "run" / ".hydra" / "overrides.yaml").read_text()
+    return Path(re.search(r"data_root=(\S+)", overrides)[1])
+
+
+def test_onnx_eval_reproduces_the_checkpoints_table1_and_measures_the_int8_model(
+    trained: tuple[Path, Path], exported: tuple[Path, str], quantized: tuple[Path, str, bytes], tmp_path: Path,
+) -> None:
+    """`vehloc-eval onnx_path=`: the fp32 model's per-image ranks equal the checkpoint's Table 1 (PyTorch) on every
+    test image; the INT8 model's top-1 is the one its export measured (the same code)."""
+    root, checkpoint = trained
+    checkpoint_table = pd.read_csv(checkpoint.parent.parent / "table1" / "predictions.csv")
+    for name, model in (("fp32", exported[0]), ("int8", quantized[0])):
+        run = subprocess.run(
+            [sys.executable, "-m", "vehloc.train.evaluate", f"onnx_path={model}", f"data.root={root}",
+             f"hydra.run.dir={tmp_path / name}"], capture_output=True, text=True)
+        assert run.returncode == 0, run.stderr
+        table = pd.read_csv(tmp_path / name / "table1" / "predictions.csv")
+        assert table["image"].tolist() == checkpoint_table["image"].tolist()
+        report = (tmp_path / name / "table1" / "report.md").read_text()
+        assert f"{name.upper()} model, onnxruntime" in report
+        if name == "fp32":
+            assert table["rank"].tolist() == checkpoint_table["rank"].tolist()
+            np.testing.assert_allclose(table["pred_prob"], checkpoint_table["pred_prob"], atol=1e-3)
+        else:
+            top1 = pd.read_csv(tmp_path / name / "table1" / "accuracy.csv").set_index("metric")["value"]["top1_pct"]
+            assert f"{top1:.2f}" == VehicleClassifier.from_onnx(model).metadata.notes["test_top1_int8_pct"]
+
+
+def test_int8_refusals(exported: tuple[Path, str], quantized: tuple[Path, str, bytes], tmp_path: Path) -> None:
+    """An INT8 model is not quantized again, nor taken as a checkpoint; an INT8 model that disagrees with its fp32
+    model on too many parity images is not written."""
+    from vehloc.infer.quantize import Int8Settings, QuantizationError, quantize_classifier
+
+    root = trained_root(exported)
+    data = read_compcars(root)
+    with pytest.raises(QuantizationError, match="is already an int8 model"):
+        quantize_classifier(quantized[0], tmp_path / "again.onnx", data.train[:4], data.test[:4], data.test,
+                            Int8Settings(), str(root))
+    # one calibration image of another kind than the test images sets ranges that flip some of their top-1
+    output = tmp_path / "strict.onnx"
+    output.write_bytes(b"an earlier model")
+    with pytest.raises(QuantizationError, match=r"agrees with the fp32 one on .* left unchanged"):
+        quantize_classifier(exported[0], output, data.train[:1], data.test, data.test,
+                            Int8Settings(min_top1_agreement=1.0), str(root))
+    assert output.read_bytes() == b"an earlier model" and not list(tmp_path.glob(".*.tmp"))

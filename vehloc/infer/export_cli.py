@@ -53,6 +53,7 @@ def default_output(checkpoint_path: Path) -> Path:
 def check_export_config(cfg: DictConfig) -> ExportParams:
     """The export's settings, checked (ConfigError naming the first bad one)."""
     values = {k: v for k, v in OmegaConf.to_container(cfg, resolve=True).items() if k not in ("paths", "hydra")}
+    values.update({k: None for k in ("ckpt_path", "onnx_path") if OmegaConf.is_missing(cfg, k)})
     params = build_params(ExportParams, values, "")
     if bool(params.ckpt_path) == bool(params.onnx_path):
         raise VehlocError("ckpt_path=PATH is required: the checkpoint to export (or onnx_path=MODEL.onnx "
