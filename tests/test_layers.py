@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "vehloc"
-UTILITIES = {"errors", "hardware", "config", "atomic", "tables", "conf", "api"}
+UTILITIES = {"errors", "hardware", "config", "atomic", "tables", "conf", "api", "multirun"}
 FILE_WRITERS = {"atomic"}
 ALLOWED = {
     "utilities": UTILITIES,

@@ -85,3 +85,31 @@ def test_an_onnx_file_that_is_no_vehloc_model_is_refused(kind: str, cut_scene: d
     result = _localize({**cut_scene, "model": model}, tmp_path / "run")
     assert_one_error(result, "vehloc-localize", str(model))
     assert not (tmp_path / "run" / "records.csv").exists()
+
+
+def test_a_multirun_of_videos_through_submitits_local_executor_merges_them(cut_scene: dict[str, Path],
+                                                                         tmp_path: Path) -> None:
+    """`vehloc-localize -m hydra/launcher=submitit_local video=a,b,bad`: each video a submitit job; the two good
+    ones end with their records, the bad one's folder with its reason; the multirun's folder holds one table of
+    the videos (and their vehicles), and the command lists the failed job and exits 1."""
+    videos = [tmp_path / "a.avi", tmp_path / "b.avi", tmp_path / "bad.avi"]
+    for video in videos[:2]:
+        video.write_bytes(cut_scene["video"].read_bytes())
+    videos[2].write_text("not a video")
+    sweep = tmp_path / "sweep"
+    result = run_cli("vehloc-localize", "-m", "hydra/launcher=submitit_local", "hydra.launcher.timeout_min=10",
+                     f"video={','.join(map(str, videos))}", f"calibration={cut_scene['calibration']}",
+                     f"model={cut_scene['model']}", "annotate=false", f"hydra.sweep.dir={sweep}", cwd=tmp_path)
+    assert result.returncode == 1, result.stderr[-3000:]
+    for job in ("0", "1"):
+        records = pd.read_csv(sweep / job / "records.csv")
+        assert records["status"].tolist() == ["not localized"]  # the cut scene's one vehicle, as in a single run
+    assert "bad.avi: not a readable video" in (sweep / "2" / "job_error.txt").read_text()
+    assert (sweep / ".submitit").is_dir()  # the jobs went through submitit
+    table = pd.read_csv(sweep / "multirun_videos.csv")
+    assert table["video"].tolist() == list(map(str, videos))
+    assert table["status"].tolist() == ["done", "done", "failed"]
+    assert table["records"].tolist() == [1, 1, 0] and table["localized"].tolist() == [0, 0, 0]
+    assert "not a readable video" in table.loc[2, "reason"]
+    assert (sweep / "multirun_videos.md").is_file() and (sweep / "multirun_videos.png").stat().st_size > 1000
+    assert "vehloc-localize: error: 1 of 3 jobs failed" in result.stderr and "Traceback" not in result.stderr

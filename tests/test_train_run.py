@@ -199,17 +199,25 @@ def test_ddp_sim_trains_with_two_cpu_processes(tiny_root: Path, tmp_path: Path):
     assert pd.read_csv(tmp_path / "table1" / "predictions.csv")["image"].nunique() == 3
 
 
-def test_multirun_sweeps_two_runs(tiny_root: Path, tmp_path: Path):
+def test_multirun_sweeps_runs_past_a_failed_job_and_lists_it(tiny_root: Path, tmp_path: Path):
+    """A sweep of three learning rates, the second one bad: the other two train and write Table 1, the bad one's
+    folder records its one line, and the sweep ends listing it with exit code 1."""
     sweep_dir = tmp_path / "sweep"
     result = run_cli(
         "-m", "vehloc.train.train", "-m", *tiny_overrides(tiny_root, "debug=fdr"),
-        "model.optimizer.lr_head=0.01,0.02", f"hydra.sweep.dir={sweep_dir}", cwd=tmp_path,
+        "model.optimizer.lr_head=0.01,-1,0.02", f"hydra.sweep.dir={sweep_dir}", cwd=tmp_path,
     )
-    assert result.returncode == 0, result.stderr[-3000:]
-    for job in ("0", "1"):
+    assert result.returncode == 1, result.stderr[-3000:]
+    for job in ("0", "2"):
         assert (sweep_dir / job / "table1" / "report.md").is_file()
-    overrides = [(sweep_dir / job / ".hydra" / "overrides.yaml").read_text() for job in ("0", "1")]
-    assert "lr_head=0.01" in overrides[0] and "lr_head=0.02" in overrides[1]
+    overrides = [(sweep_dir / job / ".hydra" / "overrides.yaml").read_text() for job in ("0", "1", "2")]
+    assert "lr_head=0.01" in overrides[0] and "lr_head=-1" in overrides[1] and "lr_head=0.02" in overrides[2]
+    recorded = (sweep_dir / "1" / "job_error.txt").read_text()
+    assert "lr_head" in recorded and not (sweep_dir / "1" / "table1").exists()
+    summary = error_lines(result.stderr, "vehloc-train")[-1]
+    assert summary.startswith("vehloc-train: error: 1 of 3 jobs failed")
+    assert f"model.optimizer.lr_head=-1): {recorded.strip()}" in result.stderr
+    assert "Traceback" not in result.stderr
 
 
 def test_missing_data_root_is_one_line_and_exit_1(tmp_path: Path):

@@ -13,6 +13,12 @@ from typing import Any
 
 INTERRUPTED_EXIT_CODE = 130
 """The shell's code for a process ended by SIGINT (128 + 2)."""
+_running_prog = "vehloc"
+
+
+def running_prog() -> str:
+    """The console script this process runs (`hydra_main` sets it), for lines written outside its task."""
+    return _running_prog
 
 
 class VehlocError(Exception):
@@ -37,6 +43,19 @@ def _report(prog: str, message: str) -> None:
     print(f"{prog}: {message}", file=sys.stderr, flush=True)
 
 
+def _fail(prog: str, message: str) -> None:
+    """Report a failure in one line and exit 1; in a Hydra multirun job, record it in the job's folder and return,
+    so that the other jobs run (`vehloc.multirun` lists the failed ones at the end and exits non-zero)."""
+    from vehloc.multirun import multirun_job_dir, record_job_failure
+
+    job_dir = multirun_job_dir()
+    if job_dir is None:
+        _report(prog, f"error: {message}")
+        raise SystemExit(1) from None
+    _report(prog, f"error: job {job_dir.name}: {message}")
+    record_job_failure(job_dir, message.splitlines()[0])
+
+
 def os_error_line(exc: OSError) -> str:
     """`<file>: <what the system said>` for an OSError about a file (a full disk, a read-only file system)."""
     return f"{exc.filename}: {exc.strerror or type(exc).__name__}"
@@ -44,7 +63,7 @@ def os_error_line(exc: OSError) -> str:
 
 def exit_on_error(prog: str):
     """Decorate a console-script main: a VehlocError becomes its message on stderr and exit code 1, as does an
-    OSError about a file (the file and the system's reason); Ctrl-C (KeyboardInterrupt) becomes
+    OSError about a file (the file and the system's reason), or in a multirun job a record of the failure (`_fail`); Ctrl-C (KeyboardInterrupt) becomes
     `<prog>: interrupted` and exit code 130."""
 
     def decorate(main):
@@ -53,13 +72,11 @@ def exit_on_error(prog: str):
             try:
                 return main(*args, **kwargs)
             except VehlocError as exc:
-                _report(prog, f"error: {exc}")
-                raise SystemExit(1) from None
+                _fail(prog, str(exc))
             except OSError as exc:
                 if not exc.filename:
                     raise
-                _report(prog, f"error: {os_error_line(exc)}")
-                raise SystemExit(1) from None
+                _fail(prog, os_error_line(exc))
             except KeyboardInterrupt:
                 _report(prog, "interrupted")
                 raise SystemExit(INTERRUPTED_EXIT_CODE) from None
@@ -115,6 +132,8 @@ def hydra_main(prog: str, config_path: str, config_name: str) -> Callable[[Calla
             from hydra.errors import HydraException
             from omegaconf.errors import OmegaConfBaseException
 
+            global _running_prog
+            _running_prog = prog
             user_wants_traces = os.environ.get("HYDRA_FULL_ERROR") == "1"
             os.environ["HYDRA_FULL_ERROR"] = "1"  # Hydra raises instead of printing its report, so it ends here
             try:
