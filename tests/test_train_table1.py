@@ -27,6 +27,10 @@ def _probs(rows: list[list[float]]) -> np.ndarray:
 def test_ranks_count_classes_with_higher_probability():
     probs = _probs([[0.5, 0.3, 0.2, 0, 0, 0, 0], [0.1, 0.6, 0.3, 0, 0, 0, 0], [0.01, 0.02, 0.03, 0.2, 0.2, 0.3, 0.24]])
     assert true_ranks(probs, np.array([0, 2, 0])).tolist() == [1, 2, 7]
+    # equal probabilities rank in class order, as argmax takes the first: top-1 is argmax, never optimistic
+    tied = np.array([[0.4, 0.4, 0.2], [0.4, 0.4, 0.2]])
+    assert true_ranks(tied, np.array([0, 1])).tolist() == [1, 2]
+    assert (true_ranks(tied, np.array([0, 1])) == 1).tolist() == (tied.argmax(axis=1) == [0, 1]).tolist()
     assert rank_histogram([1, 1, 2, 7, 6]) == "1×2 2×1 –×2"
 
 

@@ -147,17 +147,24 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=6, help="alternating timing rounds per batch size")
     parser.add_argument("--round-seconds", type=float, default=1.0)
     parser.add_argument("--pipeline-rounds", type=int, default=2)
+    parser.add_argument("--threads", type=int, default=0,
+                        help="onnxruntime's intra-op threads for both models (0: its default, one per core)")
     args = parser.parse_args()
     if (args.video is None) != (args.calibration is None):
         parser.error("--video and --calibration go together")
 
-    classifiers = {name: VehicleClassifier.from_onnx(path, ["CPUExecutionProvider"])
-                   for name, path in zip(PRECISIONS, (args.fp32, args.int8))}
+    options = ort.SessionOptions()
+    options.intra_op_num_threads = args.threads
+    classifiers = {}
+    for name, path in zip(PRECISIONS, (args.fp32, args.int8)):
+        loaded = VehicleClassifier.from_onnx(path, ["CPUExecutionProvider"])  # checks the file and its metadata
+        session = ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
+        classifiers[name] = VehicleClassifier(session, loaded.metadata, loaded.source)
     for name, classifier in classifiers.items():
         if classifier.metadata.precision != name:
             parser.error(f"--{name} {classifier.source}: is an {classifier.metadata.precision} model")
     cpu = cpu_info()
-    threads = ort.SessionOptions().intra_op_num_threads or cpu.logical_cores
+    threads = args.threads or cpu.logical_cores
     rows = []
     for batch in (1, 32):
         print(f"timing the networks at batch {batch}", flush=True)
@@ -181,8 +188,8 @@ def main() -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     write_text(args.out / "int8_vs_fp32.csv", table.to_csv(index=False, float_format="%.3f"))
     shown = table.astype(object).where(table.notna(), "")
-    write_text(args.out / "int8_vs_fp32.md", "\n\n".join([f"# {title}", markdown_table(shown),
-                                                           *[f"- {r}" for r in ratios], *lines]) + "\n")
+    ratio_list = "\n".join(f"- {r}" for r in ratios)
+    write_text(args.out / "int8_vs_fp32.md", "\n\n".join([f"# {title}", markdown_table(shown), ratio_list, *lines]) + "\n")
     write_png(table, args.out / "int8_vs_fp32.png", title)
     print(title)
     print(table.to_string(index=False, float_format=lambda v: f"{v:.3f}"))

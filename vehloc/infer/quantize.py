@@ -4,7 +4,8 @@ onnxruntime's recipe for CNNs: the model prepared (`quant_pre_process`: shapes i
 static QDQ quantization of the convolutions, matrix products and the element-wise and pooling operators between
 them, with per-channel int8 weights and uint8 activations whose ranges come from calibration images read through
 the model's own preprocessing (the ROI enlargement, resize and crop of every other use); the input's
-normalisation and the final softmax stay float. `reduce_range` (7-bit weights) is chosen from the CPU: without
+normalisation and the head (the last fully connected layer and what follows it: the logits and the softmax) stay
+float, so that the class probabilities a track's vote averages are not on an 8-bit grid (which ties classes). `reduce_range` (7-bit weights) is chosen from the CPU: without
 int8 dot products (VNNI) x86's u8 x s8 multiply can saturate, with them full range is exact.
 
 The quantized file carries the fp32 model's vehloc metadata plus notes on what was quantized and how and the
@@ -36,7 +37,8 @@ QUANTIZE_MODES = ("none", "int8")
 CALIBRATION_METHODS = ("minmax", "entropy", "percentile")
 QUANTIZED_OPS = ("Conv", "MatMul", "Gemm", "Add", "Mul", "Relu", "Clip", "MaxPool", "AveragePool",
                  "GlobalAveragePool", "Concat")
-"""The operators quantized: the network between its float normalisation and its float softmax."""
+"""The operators quantized: the network between its float normalisation and its float head (`head_nodes`)."""
+HEAD_OPS = ("Gemm", "MatMul")
 PROVIDERS = ["CPUExecutionProvider"]
 
 
@@ -113,7 +115,7 @@ def quantize_classifier(
         **fp32.metadata.notes, "precision": "int8",
         "quantization": (f"onnxruntime static QDQ: uint8 activations, int8 weights "
                          f"{'per channel' if settings.per_channel else 'per tensor'}, reduce_range "
-                         f"{str(reduce_range).lower()} ({reason}); {', '.join(QUANTIZED_OPS)}"),
+                         f"{str(reduce_range).lower()} ({reason}); {', '.join(QUANTIZED_OPS)}; the head float"),
         "calibration": f"{len(calibration)} training images of {data_name}, {settings.calibration_method}",
         "fp32_model_sha256": file_sha256(fp32_path),
     })
@@ -160,6 +162,7 @@ def _quantize(fp32_path: Path, scratch: Path, output: Path, inputs: np.ndarray, 
 
     prepared = scratch / "prepared.onnx"
     quant_pre_process(str(fp32_path), str(prepared), skip_symbolic_shape=True)
+    head = head_nodes(onnx.load(str(prepared)))
     method = {"minmax": CalibrationMethod.MinMax, "entropy": CalibrationMethod.Entropy,
               "percentile": CalibrationMethod.Percentile}[settings.calibration_method]
     root_logger = logging.getLogger()
@@ -170,9 +173,25 @@ def _quantize(fp32_path: Path, scratch: Path, output: Path, inputs: np.ndarray, 
             str(prepared), str(output), OneImageAtATime(), quant_format=QuantFormat.QDQ,
             per_channel=settings.per_channel, reduce_range=reduce_range, activation_type=QuantType.QUInt8,
             weight_type=QuantType.QInt8, calibrate_method=method, op_types_to_quantize=list(QUANTIZED_OPS),
+            nodes_to_exclude=head,
         )
     finally:
         root_logger.setLevel(level)
+
+
+def head_nodes(model: onnx.ModelProto) -> list[str]:
+    """The names of the graph's last fully connected node (Gemm or MatMul, in the graph's topological order) and of
+    every node downstream of it."""
+    nodes = list(model.graph.node)
+    last = max((i for i, node in enumerate(nodes) if node.op_type in HEAD_OPS), default=None)
+    if last is None:
+        return []
+    produced, head = set(nodes[last].output), [nodes[last].name]
+    for node in nodes[last + 1:]:
+        if produced & set(node.input):
+            produced |= set(node.output)
+            head.append(node.name)
+    return [name for name in head if name]
 
 
 def _save_with_metadata(path: Path, metadata: object) -> None:

@@ -1,6 +1,7 @@
 """The paper's Table 1 and the evaluation tables, from test-set class probabilities (pure functions).
 
-Rank of the true model: 1 + the number of classes with a higher probability; ranks beyond `MAX_RANK`
+Rank of the true model: 1 + the number of classes with a higher probability (and of those with an equal one
+before it in class order, as argmax breaks ties); ranks beyond `MAX_RANK`
 are written "–" as in the paper. Two dimension rules: `top1` (the paper's: the dimensions of the top-1
 model) and `expected` (probability-weighted dimensions over the top-k models).
 """
@@ -45,9 +46,11 @@ class EvalTables:
 
 
 def true_ranks(probs: np.ndarray, targets: np.ndarray) -> np.ndarray:
-    """1-based rank of the true class in each row of `probs`."""
+    """1-based rank of the true class in each row of `probs`, classes of equal probability in index order (as
+    `argmax` takes the first): rank 1 exactly when the row's argmax is the true class."""
     true_p = probs[np.arange(len(targets)), targets]
-    return 1 + (probs > true_p[:, None]).sum(axis=1)
+    tied_before = (probs == true_p[:, None]) & (np.arange(probs.shape[1])[None, :] < targets[:, None])
+    return 1 + (probs > true_p[:, None]).sum(axis=1) + tied_before.sum(axis=1)
 
 
 def rank_label(rank: int) -> str:
