@@ -1,4 +1,5 @@
-"""The layer contract: `data` under all; `train` and `infer` beside each other on `data` (the export bridges them);
+"""The layer contract: `data` under all; `train` and `infer` beside each other on `data` (the export and the ONNX
+evaluation bridge them);
 the geometry maths (`vehloc.geometry`) on `data` only: no classifier, no pipeline, no drawing, no file writer; the
 pipeline (`vehloc.geometry.pipeline`) on the geometry and `infer`, never on `train`; `synth` on `data` and the
 geometry; the localization benchmark on `synth` and the pipeline; the demo application over them all (training
@@ -29,9 +30,10 @@ ALLOWED = {
     "benchmark": UTILITIES | {"data", "infer", "geometry", "pipeline", "synth", "benchmark"},
     "demo": UTILITIES | {"data", "train", "infer", "geometry", "pipeline", "synth", "demo"},
 }
-# the one bridge between training and deployment: export (with training, as it needs torch) turns a checkpoint
-# into an ONNX file and checks it with the deployed classifier; vehloc-export's CLI calls it when it runs
-EXCEPTIONS = {"vehloc.train.export": {"infer"}, "vehloc.infer.export_cli": {"train"}}
+# the bridges between training and deployment: export (with training, as it needs torch) turns a checkpoint
+# into an ONNX file and checks it with the deployed classifier; vehloc-export's CLI calls it when it runs; and
+# vehloc-eval scores a deployed file with training's Table 1 code (`onnx_eval`)
+EXCEPTIONS = {"vehloc.train.export": {"infer"}, "vehloc.infer.export_cli": {"train"}, "vehloc.train.onnx_eval": {"infer"}}
 TORCH = {"torch", "torchvision", "lightning", "pytorch_lightning", "torchmetrics"}
 TORCH_FREE_LAYERS = {"utilities", "data", "infer", "geometry", "pipeline", "synth", "benchmark", "demo"}
 

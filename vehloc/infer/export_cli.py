@@ -7,6 +7,7 @@ only when it has passed every check, so a failed or interrupted export leaves an
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -14,6 +15,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from vehloc.atomic import check_output_file
 from vehloc.config import build_params, check_choice, check_range, config_dir
+from vehloc.data.compcars import CompCarsSample, CompCarsSet, read_compcars
 from vehloc.errors import VehlocError, exit_on_error, hydra_main
 from vehloc.infer.quantize import QUANTIZE_MODES, Int8Settings, default_int8_output
 
@@ -92,8 +94,6 @@ def _run(cfg: DictConfig) -> None:
     params = check_export_config(cfg)
     fp32_output, int8_output = output_paths(params)
 
-    from vehloc.data.compcars import read_compcars
-
     if params.ckpt_path:
         from vehloc.train.checkpoints import read_checkpoint
 
@@ -101,7 +101,10 @@ def _run(cfg: DictConfig) -> None:
     else:
         from vehloc.infer.classifier import VehicleClassifier
 
-        VehicleClassifier.from_onnx(params.onnx_path, ["CPUExecutionProvider"])  # named before the data is read
+        model = VehicleClassifier.from_onnx(params.onnx_path, ["CPUExecutionProvider"])  # named before the data is read
+        if model.metadata.precision != "fp32":
+            raise VehlocError(f"onnx_path {params.onnx_path}: is already an {model.metadata.precision} model; "
+                              "quantize its fp32 model")
     data = read_compcars(params.data_root)
     if not data.test:
         raise VehlocError(f"data_root {params.data_root}: the test split is empty; the parity check needs images")
@@ -113,7 +116,7 @@ def _run(cfg: DictConfig) -> None:
         _quantize(params, fp32_model, int8_output, data, parity)
 
 
-def _export(params: ExportParams, output: Path, parity: list) -> Path:
+def _export(params: ExportParams, output: Path, parity: Sequence[CompCarsSample]) -> Path:
     from vehloc.data.shapes import SHAPES_FILE, read_shapes
 
     shapes_path = Path(params.data_root) / SHAPES_FILE
@@ -129,7 +132,8 @@ def _export(params: ExportParams, output: Path, parity: list) -> Path:
     return output
 
 
-def _quantize(params: ExportParams, fp32_model: Path, output: Path, data, parity: list) -> None:
+def _quantize(params: ExportParams, fp32_model: Path, output: Path, data: CompCarsSet,
+              parity: Sequence[CompCarsSample]) -> None:
     from vehloc.infer.quantize import quantize_classifier
 
     settings = params.int8

@@ -31,7 +31,7 @@ from vehloc.errors import VehlocError
 from vehloc.hardware import CpuInfo, cpu_info
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.infer.labelled import LabelledPredictions, predict_labelled
-from vehloc.infer.metadata import attach_metadata, file_sha256
+from vehloc.infer.metadata import ModelMetadata, attach_metadata, file_sha256
 
 QUANTIZE_MODES = ("none", "int8")
 CALIBRATION_METHODS = ("minmax", "entropy", "percentile")
@@ -194,7 +194,7 @@ def head_nodes(model: onnx.ModelProto) -> list[str]:
     return [name for name in head if name]
 
 
-def _save_with_metadata(path: Path, metadata: object) -> None:
+def _save_with_metadata(path: Path, metadata: ModelMetadata) -> None:
     model = onnx.load(str(path))
     attach_metadata(model, metadata)
     onnx.save(model, str(path))
