@@ -27,6 +27,7 @@ from vehloc.synth.road import render_road
 from vehloc.synth.scene import SceneSpec, render_frames
 from vehloc.synth.scene_site import scene_site
 from vehloc.tables import markdown_table
+from vehloc.errors import exit_on_error
 
 
 
@@ -39,6 +40,7 @@ def _time_ms(function: Callable[[], object], repeats: int) -> list[float]:
     return times
 
 
+@exit_on_error("experiments/bench_geometry.py")
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", type=Path, default=Path("outputs/bench_geometry"))

@@ -22,6 +22,7 @@ import torch
 from vehloc.train.export import DeployedClassifier
 from vehloc.train.module import LitVehicleClassifier, load_classifier, read_checkpoint
 from vehloc.tables import markdown_table
+from vehloc.errors import exit_on_error
 
 
 def paper_model(num_classes: int, size_px: int) -> LitVehicleClassifier:
@@ -43,6 +44,7 @@ def _median_ms(function, repeats: int) -> float:
     return float(np.median(times))
 
 
+@exit_on_error("experiments/bench_onnx_vs_eager.py")
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", type=Path, default=Path("outputs/bench_onnx"))

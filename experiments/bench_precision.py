@@ -30,6 +30,7 @@ from vehloc.train.module import LitVehicleClassifier
 from vehloc.train.precision import resolve_precision
 from vehloc.tables import markdown_table
 from vehloc.train.schedules import build_optimizer, param_groups
+from vehloc.errors import exit_on_error
 
 DEMO_CLASSES = 12
 
@@ -75,6 +76,7 @@ def step_seconds(model: LitVehicleClassifier, optimizer: torch.optim.Optimizer, 
     return times
 
 
+@exit_on_error("experiments/bench_precision.py")
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("outputs/bench_precision"))

@@ -29,6 +29,7 @@ from vehloc.train.instantiate import compose_config, instantiate_data_and_model
 from vehloc.train.module import LitVehicleClassifier
 from vehloc.tables import markdown_table
 from vehloc.train.schedules import build_optimizer, param_groups
+from vehloc.errors import exit_on_error
 
 
 class BatchList(Dataset):
@@ -110,6 +111,7 @@ def workbench_images_per_s(model: LitVehicleClassifier, loader: DataLoader, warm
     return images / (timer.end_s - timer.start_s)
 
 
+@exit_on_error("experiments/bench_train_throughput.py")
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("outputs/bench_train_throughput"))

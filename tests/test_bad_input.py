@@ -5,6 +5,8 @@ or value and what is wrong, a non-zero exit code, and an earlier output left byt
 from __future__ import annotations
 
 import shutil
+import subprocess
+import sys
 from collections.abc import Callable
 from pathlib import Path
 
@@ -13,6 +15,7 @@ import numpy as np
 import pytest
 from bad_input import (
     assert_one_error,
+    cli_env,
     leftovers,
     read_only_supported,
     run_cli,
@@ -191,10 +194,12 @@ PREDICT_CASES = {
     "top_k_text": (["--top-k", "five", "{image}"], ["--top-k: expected an integer, got 'five'"], 2),
     "csv_is_a_folder": (["--csv", "{tmp}", "{image}"], ["--csv", "is a folder; give a file name"], 1),
     "csv_parent_is_a_file": (["--csv", "{tmp}/keep.csv/p.csv", "{image}"], ["keep.csv is a file, not a folder"], 1),
+    "csv_is_the_model": (["--csv", "{model:good}", "{image}"], ["--csv", "good.onnx: is an input this run reads"], 1),
+    "csv_is_an_image": (["--csv", "{image}", "{image}"], ["--csv", "is an input this run reads"], 1),
     "image_missing": (["{tmp}/none.jpg"], ["none.jpg: image does not exist"], 1),
     "image_is_a_folder": (["{tmp}"], ["is a folder"], 1),
     "image_truncated": (["{truncated}"], ["truncated.jpg: truncated JPEG"], 1),
-    "image_not_an_image": (["{tmp}/keep.csv"], ["keep.csv: not a readable image"], 1),
+    "image_not_an_image": (["--csv", "{tmp}/out.csv", "{tmp}/keep.csv"], ["keep.csv: not a readable image"], 1),
     "label_latin1": (["--compcars-labels", "{latin1_label_image}"], ["img1.txt: not UTF-8 text"], 1),
     "label_malformed": (["--compcars-labels", "{bad_label_image}"], ["img2.txt: malformed label: line 3"], 1),
     "model_missing": (["--model", "{tmp}/none.onnx", "{image}"], ["none.onnx: model file does not exist"], 1),
@@ -419,3 +424,28 @@ def test_tiny_root_fixture_is_clean(tmp_path: Path) -> None:
     result = run_cli("vehloc-data", "check", root, "--images")
     assert result.returncode == 0 and "no problems found" in result.stdout, result.stderr
     shutil.rmtree(root)
+
+
+# --- the scripts under experiments/ -----------------------------------------------------------------------------
+
+SCRIPT_CASES = {
+    "int8_vs_fp32_missing_model": ("experiments/benchmarks/int8_vs_fp32.py",
+                                   ["--fp32", "{tmp}/none.onnx", "--int8", "{tmp}/none.int8.onnx", "--out", "{tmp}/out"],
+                                   "none.onnx: model file does not exist"),
+    "localize_stages_missing_model": ("experiments/benchmarks/localize_stages.py",
+                                      ["--video", "{tmp}/v.avi", "--calibration", "{tmp}/c.json",
+                                       "--model", "{tmp}/none.onnx", "--out", "{tmp}/out"],
+                                      "none.onnx: model file does not exist"),
+}
+
+
+@pytest.mark.parametrize("kind", SCRIPT_CASES)
+def test_an_experiment_script_answers_bad_input_in_one_line(kind: str, tmp_path: Path) -> None:
+    """The experiment scripts run under the same entry wrapper as the console scripts: a missing file is one line
+    naming the script and the file, exit code 1, no traceback and nothing written."""
+    script, args, fragment = SCRIPT_CASES[kind]
+    project = Path(__file__).resolve().parents[1]
+    result = subprocess.run([sys.executable, str(project / script), *(a.format(tmp=tmp_path) for a in args)],
+                            capture_output=True, text=True, env=cli_env(), timeout=300)
+    assert_one_error(result, script, fragment)
+    assert "Traceback" not in result.stderr and not (tmp_path / "out").exists()

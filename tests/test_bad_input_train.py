@@ -256,10 +256,10 @@ EXPORT_CASES = {
                              ["int8.calibration_images: must be >= 1, got 0"]),
     "int8_model_as_checkpoint": (["ckpt_path={tmp}/model.int8.onnx"],
                                  ["model.int8.onnx: is an ONNX model, not a checkpoint", "onnx_path="]),
-    "output_is_the_checkpoint": (["output={tmp}/good.ckpt"], ["output", "good.ckpt: is the input this export reads"]),
+    "output_is_the_checkpoint": (["output={tmp}/good.ckpt"], ["output", "good.ckpt: is an input this run reads"]),
     "onnx_path_without_quantize": (["ckpt_path=null", "onnx_path={tmp}/model.onnx"], ["add quantize=int8"]),
     "int8_output_is_the_input": (["ckpt_path=null", "onnx_path={tmp}/model.onnx", "quantize=int8",
-                                  "int8.output={tmp}/model.onnx"], ["int8.output", "is the input this export reads"]),
+                                  "int8.output={tmp}/model.onnx"], ["int8.output", "is an input this run reads"]),
 }
 
 

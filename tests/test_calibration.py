@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +18,7 @@ from vehloc.geometry.calibration import (
 )
 from vehloc.geometry.edges import stripe_edges
 from vehloc.geometry.camera import PinholeCamera
+from vehloc.geometry.camera_calibration import read_calibration
 from vehloc.geometry.markers import detect_markers
 from vehloc.geometry.site import Site, SiteError, SiteMarker, homography_from_points, read_site, site_yaml
 from vehloc.atomic import write_text
@@ -195,3 +198,44 @@ def test_refinement_from_the_rough_guess_alone() -> None:
     world = _visible_world_corners(camera, site)
     error_px = road_to_image(world) - camera.road_to_image()(world)
     assert np.sqrt(np.mean(np.sum(error_px**2, axis=1))) <= 1.0 and median_edge_px < 0.3
+
+
+def _calibration_file(tmp_path: Path, homography: np.ndarray, rms: object = 0.4) -> Path:
+    path = tmp_path / "calibration.json"
+    path.write_text(json.dumps({"homography_world_mm_to_image_px": np.asarray(homography).tolist(),
+                                "image_size_px": [1280, 720], "rms_reprojection_px": rms}))
+    return path
+
+
+@pytest.mark.parametrize(("defect", "message"), [
+    ("rms_nan", "rms_reprojection_px must be a finite number >= 0, got nan"),
+    ("rms_negative", "rms_reprojection_px must be a finite number >= 0, got -1.0"),
+    ("singular", "the homography is singular (rank 2)"),
+    ("horizon_in_the_road", "the road's horizon crosses the image's bottom row"),
+])
+def test_a_calibration_file_is_checked_on_read(defect: str, message: str, tmp_path: Path) -> None:
+    """A calibration whose RMS is NaN or negative fed NaN sigmas into every position; a singular homography or one
+    whose horizon cuts through the road nearest the camera is no camera's view of a road: each is refused on read."""
+    good = _true_homography(CAMERAS["side_high"])
+    assert read_calibration(_calibration_file(tmp_path, good)).camera is not None
+    homography, rms = good.copy(), 0.4
+    if defect.startswith("rms"):
+        rms = float("nan") if defect == "rms_nan" else -1.0
+    elif defect == "singular":
+        homography[2] = homography[0] + homography[1]
+    else:  # the image turned a quarter about its centre: the horizon, above the image, now stands upright in it
+        quarter_turn = np.array([[0.0, -1.0, 640.0 + 360.0], [1.0, 0.0, 360.0 - 640.0], [0.0, 0.0, 1.0]])
+        homography = quarter_turn @ homography
+    with pytest.raises(CalibrationError, match=re.escape(message)):
+        read_calibration(_calibration_file(tmp_path, homography, rms))
+
+
+def test_a_guess_on_an_image_without_the_sites_markers_is_no_calibration() -> None:
+    """mode=guess on a frame where no marker shows reported 'RMS 0.00 px' (the clicked points against themselves)
+    and replaced a good calibration; with no edge to refine on it is refused."""
+    from vehloc.geometry.calibration import calibrate_from_guess
+
+    site = _site_with_clicked_guess(CAMERAS["side_high"], 3.0, seed=4)
+    plain_road = np.full((720, 1280, 3), 96, np.uint8)
+    with pytest.raises(CalibrationError, match="no edge of its markers or stripes is where the clicked guess puts them"):
+        calibrate_from_guess(plain_road, site)

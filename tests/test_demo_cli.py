@@ -74,3 +74,15 @@ def test_bad_settings_are_refused_before_any_work(overrides: list[str], message:
     refused = _demo(out, *overrides)
     assert_one_error(refused, "vehloc-demo", message)
     assert not (out / "compcars").exists()
+
+
+def test_a_train_folder_the_demo_did_not_make_is_never_removed(tmp_path: Path) -> None:
+    """`vehloc-demo` removed an `out/train` folder it did not make (with out='' the current folder's `train/`); it
+    removes only one that holds its mark or its train step's stamp, and refuses in one line otherwise."""
+    out = tmp_path / "run"
+    mine = out / "train" / "notes.txt"
+    mine.parent.mkdir(parents=True)
+    mine.write_text("a user's own work")
+    refused = _demo(out, 'train_overrides=["trainer.max_epochs=1"]')
+    assert_one_error(refused, "vehloc-demo", f"{out / 'train'} exists and was not made by vehloc-demo")
+    assert mine.read_text() == "a user's own work" and sorted(p.name for p in mine.parent.iterdir()) == ["notes.txt"]

@@ -113,3 +113,31 @@ def test_a_multirun_of_videos_through_submitits_local_executor_merges_them(cut_s
     assert "not a readable video" in table.loc[2, "reason"]
     assert (sweep / "multirun_videos.md").is_file() and (sweep / "multirun_videos.png").stat().st_size > 1000
     assert "vehloc-localize: error: 1 of 3 jobs failed" in result.stderr and "Traceback" not in result.stderr
+
+
+def test_a_video_cut_short_is_localized_as_far_as_it_decodes_and_says_where_it_stopped(
+        cut_scene: dict[str, Path], tmp_path: Path) -> None:
+    """A truncated file (its container still promising 230 frames): the frames decoded are localized, exit 0, and
+    one warning line names the frame where decoding stopped (it used to pass for 'no vehicle stopped')."""
+    data = cut_scene["video"].read_bytes()
+    cut = tmp_path / "cut.avi"
+    cut.write_bytes(data[: len(data) * 3 // 4])
+    result = _localize({**cut_scene, "video": cut}, tmp_path / "run")
+    assert result.returncode == 0, result.stderr[-2000:]
+    warnings = [line for line in result.stderr.splitlines() if line.startswith("vehloc-localize: warning:")]
+    assert len(warnings) == 1 and f"{cut}: decoding stopped at frame " in warnings[0]
+    assert "of the 230 its container promises" in warnings[0]
+    assert (tmp_path / "run" / "records.csv").is_file()
+
+
+def test_a_truth_file_of_another_scene_is_refused(cut_scene: dict[str, Path], tmp_path: Path) -> None:
+    """The scene's truth with another frame count (another rendering) was accepted and scored against this video's
+    records; it is refused in one line before any frame is read."""
+    truth = json.loads((cut_scene["video"].parent / "ground_truth.json").read_text())
+    truth["frames"] = truth["frames"] + 100
+    other = tmp_path / "ground_truth.json"
+    other.write_text(json.dumps(truth))
+    result = _localize(cut_scene, tmp_path / "run", f"truth={other}")
+    assert_one_error(result, "vehloc-localize", f"truth {other}: is of a scene of 1280x720 px and",
+                     f"the video {cut_scene['video']} has 1280x720 px and")
+    assert not (tmp_path / "run" / "records.csv").exists()

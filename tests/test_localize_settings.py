@@ -11,10 +11,10 @@ from pathlib import Path
 import pytest
 from bad_input import assert_one_error, side_by_side
 
-from vehloc.config import ConfigError
+from vehloc.config import ConfigError, read_config
 from vehloc.geometry.keypoints import DetectorParams
 from vehloc.geometry.model_fit import FitParams
-from vehloc.geometry.pipeline.settings import LocalizeSettings, PipelineParams
+from vehloc.geometry.pipeline.settings import STAGE_GROUPS, LocalizeSettings, PipelineParams
 from vehloc.geometry.pipeline.track_speed import SpeedParams
 from vehloc.geometry.pipeline.tracker import TrackerParams
 from vehloc.geometry.roi import RoiParams
@@ -52,6 +52,53 @@ def test_a_bad_override_of_the_library_is_a_config_error(overrides: list[str], f
     with pytest.raises(ConfigError, match=fragment.replace(".", r"\.")) as caught:
         LocalizeSettings.compose(overrides)
     assert "\n" not in str(caught.value)
+
+
+def _numeric_settings(values: dict, prefix: str) -> list[tuple[str, object]]:
+    """(dotted name, value) of every number or list of numbers in a group's defaults, nested sections included."""
+    found = []
+    for key, value in values.items():
+        name = f"{prefix}.{key}"
+        if isinstance(value, dict):
+            found += _numeric_settings(value, name)
+        elif isinstance(value, (int, float)) and not isinstance(value, bool):
+            found.append((name, value))
+        elif isinstance(value, list) and value and all(isinstance(v, (int, float)) for v in value):
+            found.append((name, value))
+    return found
+
+
+NUMERIC_SETTINGS = [setting for group in STAGE_GROUPS
+                    for setting in _numeric_settings(read_config(f"localize/{group}/default.yaml"), group)]
+SIGNED_OUT_OF_RANGE = {"speed.edge_inset_px": 5.0, "pipeline.silhouette_search_mm": [3000.0, -1500.0, 250.0],
+                       "roi.shadow_min_correlation": 2.0, "roi.silhouette_shadow_min_correlation": 2.0,
+                       "roi.silhouette_covered_max_correlation": 2.0}
+"""The settings where a negative value means something: a value out of their range instead."""
+
+
+@pytest.mark.parametrize("setting", [name for name, _ in NUMERIC_SETTINGS])
+def test_every_numeric_setting_of_every_stage_has_its_range_checked(setting: str) -> None:
+    """Each stage's schema checks every number before any frame is read: a negative one (or, where negatives mean
+    something, one out of range) is a ConfigError naming the setting, not a traceback, a hang or a silent run."""
+    default = dict(NUMERIC_SETTINGS)[setting]
+    bad = SIGNED_OUT_OF_RANGE.get(setting, [-1] * len(default) if isinstance(default, list) else -1)
+    override = f"{setting}={bad}".replace(" ", "")
+    with pytest.raises(ConfigError, match=setting.replace(".", r"\.")) as caught:
+        LocalizeSettings.compose([override])
+    assert "\n" not in str(caught.value)
+
+
+@pytest.mark.parametrize(("override", "message"), [
+    ("roi.scale=50", "roi.scale: must be in (0, 1], got 50.0"),          # was a segmentation fault after 9 GB
+    ("fit.supersample=64", "fit.supersample: must be in [1, 8], got 64"),  # was a hang
+    ("roi.close_kernel_px=0", "roi.close_kernel_px: must be in [1, 101], got 0"),
+    ("plate.hue_range=[90,10]", "plate.hue_range[1]: must be in [90, 180], got 10"),
+    ("wheels.dark_percentile=101", "wheels.dark_percentile: must be in [0, 100], got 101.0"),
+])
+def test_the_settings_that_crashed_or_hung_are_refused_in_one_line(override: str, message: str) -> None:
+    with pytest.raises(ConfigError) as caught:
+        LocalizeSettings.compose([override])
+    assert str(caught.value) == message
 
 
 CLI_CASES = {

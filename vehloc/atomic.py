@@ -171,12 +171,15 @@ def _check_writable_folder(folder: Path, for_what: Path, what: str) -> None:
         raise OutputError(f"{what} {for_what}: cannot write in {existing} ({err.strerror})") from None
 
 
-def check_output_file(path: str | Path, what: str = "output") -> Path:
-    """OutputError (naming `what` and the path) unless a file can be written at `path`: not a folder, in a
-    folder that exists or can be created, and that can be written to."""
+def check_output_file(path: str | Path, what: str = "output", inputs: Sequence[str | Path] = ()) -> Path:
+    """OutputError (naming `what` and the path) unless a file can be written at `path`: not a folder, not one of
+    the run's `inputs` (a tool never writes over what it reads), in a folder that exists or can be created, and
+    that can be written to."""
     text, path = str(path), Path(path)
     if path.is_dir() or text.endswith(os.sep) or not path.name:
         raise OutputError(f"{what} {text}: is a folder; give a file name")
+    if any(Path(source).resolve() == path.resolve() for source in inputs):
+        raise OutputError(f"{what} {text}: is an input this run reads; write the output elsewhere")
     _check_writable_folder(path.parent, path, what)
     return path
 

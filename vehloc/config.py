@@ -54,6 +54,14 @@ def check_range(
         raise SettingError(name, f"must be {bounds}, got {value!r}")
 
 
+def check_interval(name: str, interval: tuple[float, float], low: float | None = None,
+                   high: float | None = None) -> None:
+    """SettingError unless `interval` is an ordered pair inside [low, high]: `low <= interval[0] <= interval[1] <=
+    high` (None: unbounded)."""
+    check_range(f"{name}[0]", interval[0], low, high)
+    check_range(f"{name}[1]", interval[1], interval[0], high)
+
+
 def check_choice(name: str, value: object, choices: tuple) -> None:
     """SettingError unless `value` is one of `choices`."""
     if value not in choices:

@@ -57,13 +57,15 @@ def _fail(prog: str, message: str) -> None:
 
 
 def os_error_line(exc: OSError) -> str:
-    """`<file>: <what the system said>` for an OSError about a file (a full disk, a read-only file system)."""
-    return f"{exc.filename}: {exc.strerror or type(exc).__name__}"
+    """`<file>: <what the system said>` for an OSError about a file (a read-only file system), or what the system
+    said alone when it names no file (a full disk while a library writes)."""
+    said = exc.strerror or str(exc) or type(exc).__name__
+    return f"{exc.filename}: {said}" if exc.filename else f"{said} (errno {exc.errno})" if exc.errno else said
 
 
 def exit_on_error(prog: str):
     """Decorate a console-script main: a VehlocError becomes its message on stderr and exit code 1, as does an
-    OSError about a file (the file and the system's reason), or in a multirun job a record of the failure (`_fail`); Ctrl-C (KeyboardInterrupt) becomes
+    OSError (the file and the system's reason, or the reason alone where it names no file), or in a multirun job a record of the failure (`_fail`); Ctrl-C (KeyboardInterrupt) becomes
     `<prog>: interrupted` and exit code 130."""
 
     def decorate(main):
@@ -74,8 +76,6 @@ def exit_on_error(prog: str):
             except VehlocError as exc:
                 _fail(prog, str(exc))
             except OSError as exc:
-                if not exc.filename:
-                    raise
                 _fail(prog, os_error_line(exc))
             except KeyboardInterrupt:
                 _report(prog, "interrupted")
@@ -139,8 +139,7 @@ def hydra_main(prog: str, config_path: str, config_name: str) -> Callable[[Calla
             try:
                 return hydra_task(*args, **kwargs)
             except (HydraException, OmegaConfBaseException, OSError) as exc:
-                hydra_own = isinstance(exc, (HydraException, OmegaConfBaseException))
-                if user_wants_traces or not (hydra_own or exc.filename):
+                if user_wants_traces:
                     raise
                 _report(prog, f"error: {hydra_error_line(exc)}")
                 raise SystemExit(1) from None

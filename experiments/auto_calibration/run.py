@@ -56,6 +56,7 @@ from vehloc.geometry.pipeline.video_localization import localize_video
 from vehloc.geometry.truth import SceneTruth, read_scene_truth
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.tables import markdown_table
+from vehloc.errors import exit_on_error
 
 SETUPS = ["traffic_cam_a_1080p", "traffic_cam_b_1080p", "traffic_cam_c_1080p", "traffic_cam_d_720p",
           "traffic_cam_e_720p", "traffic_cam_f_720p", "traffic_cam_g_240p", "traffic_cam_h_240p"]
@@ -323,6 +324,7 @@ def markdown(table: pd.DataFrame, needed: pd.DataFrame, pooled: pd.DataFrame, mo
     return "\n".join(lines) + "\n"
 
 
+@exit_on_error("experiments/auto_calibration/run.py")
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--model", type=Path, required=True, help="a classifier exported by vehloc-export")

@@ -35,6 +35,7 @@ from vehloc.geometry.pipeline.video_localization import localize_video
 from vehloc.hardware import cpu_info
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.tables import markdown_table
+from vehloc.errors import exit_on_error
 
 PRECISIONS = ("fp32", "int8")
 
@@ -136,6 +137,7 @@ def write_png(table: pd.DataFrame, path: Path, title: str) -> None:
     fig.savefig(path, dpi=120)
 
 
+@exit_on_error("experiments/benchmarks/int8_vs_fp32.py")
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--fp32", type=Path, required=True, help="the fp32 model of vehloc-export")

@@ -30,6 +30,7 @@ from vehloc.geometry.pipeline.video import iter_frames
 from vehloc.hardware import cpu_info
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.tables import markdown_table
+from vehloc.errors import exit_on_error
 
 STAGES = ("decode", "background", "tracking", "classification", "key points", "model fit")
 
@@ -93,6 +94,7 @@ def stage_rows(clock: StageClock, frame_count: int, one_in_view_s: list[float], 
     return rows
 
 
+@exit_on_error("experiments/benchmarks/localize_stages.py")
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--video", type=Path, required=True)

@@ -33,6 +33,7 @@ from vehloc.geometry.pipeline.video import iter_frames  # noqa: E402
 from vehloc.hardware import cpu_info  # noqa: E402
 from vehloc.infer.classifier import VehicleClassifier  # noqa: E402
 from vehloc.tables import markdown_table  # noqa: E402
+from vehloc.errors import exit_on_error
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "real_video"))
 from highway import EXPERIMENT, VIDEO  # noqa: E402
@@ -89,6 +90,7 @@ def figure(samples: pd.DataFrame, path: Path) -> Path:
     return path
 
 
+@exit_on_error("experiments/benchmarks/memory_loop.py")
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--calibration", type=Path, required=True, help="calibration.json of the highway clip")

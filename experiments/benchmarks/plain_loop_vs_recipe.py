@@ -26,6 +26,7 @@ from vehloc.atomic import write_text
 from vehloc.hardware import cpu_info
 from vehloc.tables import markdown_table
 from vehloc.train.efficientnet_lite import LITE_MEAN, LITE_STD, EfficientNetLite, lite_weights_path
+from vehloc.errors import exit_on_error
 
 PROJECT_ROOT = Path(__file__).resolve().parents[2]
 
@@ -102,6 +103,7 @@ def workbench_recipe(experiment: str, overrides: list[str], out: Path) -> tuple[
     return float(accuracy["top1_pct"]), seconds
 
 
+@exit_on_error("experiments/benchmarks/plain_loop_vs_recipe.py")
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, required=True, help="run folder")

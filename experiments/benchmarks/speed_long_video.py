@@ -32,6 +32,7 @@ from vehloc.geometry.pipeline.video import iter_frames, video_info
 from vehloc.hardware import cpu_info
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.tables import markdown_table
+from vehloc.errors import exit_on_error
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from memory_loop import resident_mib  # noqa: E402
@@ -113,6 +114,7 @@ def figure(samples: pd.DataFrame) -> bytes:
     return buffer.getvalue()
 
 
+@exit_on_error("experiments/benchmarks/speed_long_video.py")
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--model", type=Path, required=True, help="an ONNX classifier written by vehloc-export")

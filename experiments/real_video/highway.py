@@ -24,6 +24,7 @@ from vehloc.geometry.roi import VehicleRoiExtractor
 from vehloc.geometry.site import read_site
 from vehloc.geometry.pipeline.site_calibration import calibrate_site, write_calibration_files
 from vehloc.geometry.pipeline.video import iter_frames, median_background
+from vehloc.errors import exit_on_error
 
 PROJECT = Path(__file__).resolve().parents[2]
 VIDEO = PROJECT.parent / "shared" / "data" / "traffic" / "highway_320x240.avi"
@@ -62,6 +63,7 @@ def run_roi(out_dir: Path) -> tuple[pd.DataFrame, int]:
     return boxes, index + 1
 
 
+@exit_on_error("experiments/real_video/highway.py")
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", type=Path, default=Path("outputs/highway"))

@@ -29,6 +29,7 @@ from vehloc.geometry.pipeline.track_speed import SpeedStatus
 from vehloc.geometry.pipeline.video_localization import localize_video
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.tables import markdown_table
+from vehloc.errors import exit_on_error
 
 from highway import EXPERIMENT, VIDEO
 
@@ -90,6 +91,7 @@ def plot(paired: pd.DataFrame) -> bytes:
     return buffer.getvalue()
 
 
+@exit_on_error("experiments/real_video/highway_auto_calibration.py")
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--auto", type=Path, required=True, help="calibration.json of vehloc-calibrate mode=auto")

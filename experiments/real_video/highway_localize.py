@@ -30,6 +30,7 @@ from vehloc.geometry.pipeline.track_speed import SpeedStatus
 from vehloc.geometry.pipeline.video_localization import localize_video
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.tables import markdown_table
+from vehloc.errors import exit_on_error
 
 from highway import EXPERIMENT, LEFT_CURB_PX, VIDEO
 
@@ -81,6 +82,7 @@ def overlay(records: list[VehicleRecord], localizer: Localizer, path: Path) -> l
     return busiest
 
 
+@exit_on_error("experiments/real_video/highway_localize.py")
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--calibration", type=Path, required=True, help="calibration.json written by highway.py")

@@ -38,6 +38,7 @@ from vehloc.geometry.pipeline.speed_report import PUBLISHED, write_score
 from vehloc.geometry.pipeline.video_localization import localize_video
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.tables import markdown_table
+from vehloc.errors import exit_on_error
 
 TRUE_MODEL_ID = 9  # the Honda Spirior, the paper's test car
 CLICK_NOISE_PX = {"traffic_240p": 0.5, "traffic_720p": 2.0, "traffic_1080p": 2.0}
@@ -167,6 +168,7 @@ def markdown(table: pd.DataFrame, model: str) -> str:
     return "\n".join(lines) + "\n"
 
 
+@exit_on_error("experiments/speed/run.py")
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--model", type=Path, required=True, help="a classifier exported by vehloc-export")

@@ -25,6 +25,7 @@ import pandas as pd  # noqa: E402
 from vehloc.atomic import atomic_path, write_text  # noqa: E402
 from vehloc.hardware import cpu_info  # noqa: E402
 from vehloc.tables import markdown_table  # noqa: E402
+from vehloc.errors import exit_on_error
 
 PROJECT_ROOT = Path(__file__).resolve().parents[2]
 LEVERS: dict[str, list[str]] = {
@@ -84,6 +85,7 @@ def write_tables(rows: list[dict], out: Path, header: str) -> None:
     plt.close(fig)
 
 
+@exit_on_error("experiments/table1_dimension_error/levers.py")
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, required=True, help="run folder")

@@ -24,6 +24,7 @@ from vehloc.demo.table2_cases import TABLE2_SCENES, calibrate_case, case_table, 
 from vehloc.geometry.pipeline.evaluation import write_table2
 from vehloc.geometry.truth import read_scene_truth
 from vehloc.infer.classifier import VehicleClassifier
+from vehloc.errors import exit_on_error
 
 
 class TrueClass:
@@ -42,6 +43,7 @@ class TrueClass:
         return getattr(self.classifier, name)
 
 
+@exit_on_error("experiments/table2_localization/run.py")
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--model", type=Path, required=True, help="a classifier exported by vehloc-export")

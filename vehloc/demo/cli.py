@@ -68,6 +68,10 @@ class DemoParams:
             raise ConfigError(f"scenes: expected some of {', '.join(TABLE2_SCENES)}; got {unknown or 'none'}")
 
 
+DEMO_MADE_MARK = ".made-by-vehloc-demo"
+"""The file the demo puts in a folder it makes and may remove again (never one it did not make)."""
+
+
 class StepError(VehlocError):
     """A step of the demo failed; the steps before it are kept."""
 
@@ -118,8 +122,14 @@ class Demo:
         return [self.root]
 
     def train(self) -> list[Path]:
+        mark = self.train_dir / DEMO_MADE_MARK
         if self.train_dir.exists():
-            shutil.rmtree(self.train_dir)  # an unfinished run of other settings
+            if not (mark.is_file() or finished_at(self.run_dir, "train") is not None):
+                raise StepError(f"step train: {self.train_dir} exists and was not made by vehloc-demo; it is left as "
+                                "it is (move it, or give another out=)")
+            shutil.rmtree(self.train_dir)  # an unfinished run of other settings, made by this demo
+        self.train_dir.mkdir(parents=True)
+        mark.write_text("made by vehloc-demo: its train step may remove this folder to train again\n", encoding="utf-8")
         _run_command("train", [*TRAIN, f"experiment={self.params.train_experiment}", f"data.root={self.root}",
                                f"hydra.run.dir={self.train_dir}", *self.params.train_overrides],
                      self.run_dir / "logs" / "train.log")

@@ -14,6 +14,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from vehloc.config import check_range
+
 
 @dataclass(frozen=True)
 class BodyLineParams:
@@ -31,6 +33,16 @@ class BodyLineParams:
     min_length_fraction: float
     min_length_px: float
     max_gap_px: int
+
+    def __post_init__(self) -> None:
+        for name in ("clusters", "cluster_sample_px", "cluster_iterations", "majority_window_px", "hough_votes"):
+            check_range(name, getattr(self, name), 1)
+        check_range("canny_low", self.canny_low, 0.0)
+        check_range("canny_high", self.canny_high, self.canny_low)
+        check_range("hough_angle_step_deg", self.hough_angle_step_deg, 0.0, 90.0, low_open=True)
+        check_range("min_length_fraction", self.min_length_fraction, 0.0, 1.0)
+        check_range("min_length_px", self.min_length_px, 0.0)
+        check_range("max_gap_px", self.max_gap_px, 0)
 
 
 def kmeans_centres(samples: np.ndarray, clusters: int, iterations: int) -> np.ndarray:

@@ -308,11 +308,16 @@ def calibrate_from_guess(
     """Refine the site's clicked guess on the edges of its predicted markers and stripes.
 
     For views whose markers are too small or blurred to be found as blobs. The clicked points serve
-    as the matched corners of the result, so its reprojection error is theirs."""
+    as the matched corners of the result, so its reprojection error is theirs; CalibrationError when no edge is
+    found to refine on (the guess would be returned unchanged, with an RMS of 0)."""
     params = params or CalibrationParams.from_config()
     if not site.guess_points:
         raise CalibrationError(f"site {site.name!r}: calibrating from the guess needs 'initial_guess.points'")
     road_to_image, edge_px = refine_on_site(image_bgr, site, site.initial_transform(), params)
+    if edge_px is None:
+        raise CalibrationError(
+            f"site {site.name!r}: no edge of its markers or stripes is where the clicked guess puts them (an image "
+            "of another place, or markers out of sight): a guess alone is no calibration")
     world = np.array([w for w, _ in site.guess_points])
     image = np.array([p for _, p in site.guess_points])
     labels = tuple(f"guess:{i}" for i in range(len(world)))

@@ -47,6 +47,23 @@ class CameraCalibration:
             )
 
 
+def check_road_homography(homography: np.ndarray, image_size_px: tuple[int, int], source: str) -> None:
+    """CalibrationError naming `source` unless the road -> image homography can be a camera's view of the road: of
+    rank 3 (not the road squashed onto a line), its horizon (the image of the road's line at infinity) clear of the
+    image's bottom row, where the road nearest the camera is seen."""
+    scaled = homography / np.abs(homography).max()
+    rank = int(np.linalg.matrix_rank(scaled, tol=1e-9))
+    if rank < 3:
+        raise CalibrationError(f"{source}: the homography is singular (rank {rank}): it maps the road onto a line or point")
+    horizon = np.linalg.inv(scaled).T @ np.array([0.0, 0.0, 1.0])
+    width_px, height_px = image_size_px
+    bottom_row = np.array([[0.0, height_px - 1.0, 1.0], [width_px - 1.0, height_px - 1.0, 1.0]])
+    sides = bottom_row @ horizon
+    if sides[0] * sides[1] <= 0.0:
+        raise CalibrationError(f"{source}: the road's horizon crosses the image's bottom row: the homography does not "
+                               "show a road below its horizon")
+
+
 def read_calibration(path: str | Path) -> CameraCalibration:
     """The calibration written by `vehloc-calibrate` (`calibration.json`); CalibrationError naming the file
     when it is missing or not one."""
@@ -65,6 +82,9 @@ def read_calibration(path: str | Path) -> CameraCalibration:
         raise CalibrationError(f"{path}: needs a 3x3 homography of finite numbers and a positive image size")
     if not (np.isfinite(scale_sigma) and scale_sigma >= 0.0):
         raise CalibrationError(f"{path}: scale_sigma_fraction must be a finite number >= 0, got {scale_sigma}")
+    if not (np.isfinite(rms) and rms >= 0.0):
+        raise CalibrationError(f"{path}: rms_reprojection_px must be a finite number >= 0, got {rms}")
+    check_road_homography(homography, size, str(path))
     try:
         return CameraCalibration.from_homography(homography, size, rms, str(path), scale_sigma)
     except ValueError as err:

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from vehloc.config import params_from_config
+from vehloc.config import check_range, params_from_config
 from vehloc.geometry.body_lines import BodyLineParams, body_segments_px
 from vehloc.geometry.projective import ProjectiveTransform
 from vehloc.geometry.silhouette import outline_corners_px
@@ -49,6 +49,14 @@ class FootprintParams:
     hull_weight: float
     min_side_mm: float
     max_width_mm: float
+
+    def __post_init__(self) -> None:
+        for name in ("vertical_max_deg", "group_tolerance_deg", "hull_tolerance_deg"):
+            check_range(name, getattr(self, name), 0.0, 90.0)
+        check_range("direction_bandwidth_deg", self.direction_bandwidth_deg, 0.0, 90.0, low_open=True)
+        check_range("hull_weight", self.hull_weight, 0.0)
+        check_range("min_side_mm", self.min_side_mm, 0.0)
+        check_range("max_width_mm", self.max_width_mm, 0.0, low_open=True)
 
     @classmethod
     def from_config(cls, **overrides: object) -> FootprintParams:

@@ -12,13 +12,19 @@ import cv2
 import numpy as np
 from scipy.optimize import minimize
 
-from vehloc.config import params_from_config
+from vehloc.config import check_range, params_from_config
 from vehloc.data.boxes import Box
 from vehloc.data.shapes import VehicleShape
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.placement import VehicleBox, heading_difference_deg
 
 SUBPIXEL_SHIFT = 4
+
+
+MAX_SUPERSAMPLE = 8
+"""The finest silhouette comparison: 8x the image's resolution (64 times its pixels) per evaluation."""
+MAX_EVALUATIONS = 10_000
+"""The most silhouette evaluations one fit may take (one is about half a millisecond to a few)."""
 
 
 @dataclass(frozen=True)
@@ -32,6 +38,12 @@ class FitParams:
     tolerance_deg: float
     max_evaluations: int
     try_reversed: bool
+
+    def __post_init__(self) -> None:
+        check_range("supersample", self.supersample, 1, MAX_SUPERSAMPLE)
+        for name in ("start_step_mm", "start_step_deg", "tolerance_mm", "tolerance_deg"):
+            check_range(name, getattr(self, name), 0.0, low_open=True)
+        check_range("max_evaluations", self.max_evaluations, 1, MAX_EVALUATIONS)
 
     @classmethod
     def from_config(cls, **overrides: object) -> FitParams:

@@ -25,7 +25,7 @@ import cv2
 import numpy as np
 from scipy.ndimage import map_coordinates
 
-from vehloc.config import check_range, params_from_config
+from vehloc.config import check_interval, check_range, params_from_config
 from vehloc.geometry.silhouette import PIXEL_CORNERS
 
 @dataclass(frozen=True)
@@ -57,9 +57,30 @@ class PlateParams:
     max_height_mm: float
 
     def __post_init__(self) -> None:
+        check_interval("hue_range", self.hue_range, 0, 180)  # OpenCV's 8-bit hue
+        check_interval("saturation_range", self.saturation_range, 0, 255)
+        check_interval("value_range", self.value_range, 0, 255)
+        check_range("min_contrast", self.min_contrast, 0.0, 255.0)
+        check_range("tophat_fraction", self.tophat_fraction, 0.0, 1.0, low_open=True)
+        check_range("close_px[0]", self.close_px[0], 1)
+        check_range("close_px[1]", self.close_px[1], 1)
+        check_range("min_characters", self.min_characters, 1)
+        check_range("run_together_aspect", self.run_together_aspect, 0.0, low_open=True)
+        check_range("min_character_height_fraction", self.min_character_height_fraction, 0.0, 1.0)
+        check_range("edge_reach_fraction", self.edge_reach_fraction, 0.0)
+        for name in ("min_fitted_side_px", "max_side_residual_px", "min_width_px"):
+            check_range(name, getattr(self, name), 0.0)
+        check_range("max_width_fraction", self.max_width_fraction, 0.0, 1.0, low_open=True)
+        check_range("aspect_range[0]", self.aspect_range[0], 0.0, low_open=True)
+        check_range("aspect_range[1]", self.aspect_range[1], self.aspect_range[0])
+        check_interval("character_fraction_range", self.character_fraction_range, 0.0, 1.0)
+        check_range("min_crossings", self.min_crossings, 0)
+        check_range("expected_crossings", self.expected_crossings, max(1, self.min_crossings))
+        check_range("min_score", self.min_score, 0.0, 1.0)
         check_range("heading_agreement_deg", self.heading_agreement_deg, 0.0, 90.0)
         check_range("width_range_mm[0]", self.width_range_mm[0], 0.0, low_open=True)
         check_range("width_range_mm[1]", self.width_range_mm[1], self.width_range_mm[0])
+        check_range("max_height_mm", self.max_height_mm, 0.0, low_open=True)
         check_range("max_height_mm", self.max_height_mm, 0.0, low_open=True)
 
     @classmethod

@@ -14,11 +14,17 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from vehloc.config import check_range, params_from_config
+from vehloc.config import check_interval, check_range, params_from_config
 from vehloc.data.boxes import Box
 
 MOG2_SHADOW_VALUE = 127
 MOG2_FOREGROUND_VALUE = 255
+
+
+MAX_MIXTURES = 16
+"""The most Gaussians per pixel the background model is given (MOG2's practical limit)."""
+MAX_KERNEL_PX = 101
+"""The largest window or kernel a setting may ask for (beyond, a single morphology step takes seconds a frame)."""
 
 
 @dataclass(frozen=True)
@@ -53,10 +59,26 @@ class RoiParams:
     min_changed_fraction: float
 
     def __post_init__(self) -> None:
-        check_range("silhouette_min_solid_px", self.silhouette_min_solid_px, 1)
+        check_range("scale", self.scale, 0.0, 1.0, low_open=True)  # above 1 the frames would be enlarged
+        check_range("history_frames", self.history_frames, 1)
+        check_range("learning_rate_after_history", self.learning_rate_after_history, 0.0, 1.0)
+        check_range("mixtures", self.mixtures, 1, MAX_MIXTURES)
+        check_range("var_threshold", self.var_threshold, 0.0, low_open=True)
+        check_range("shadow_threshold", self.shadow_threshold, 0.0, 1.0)
+        for name in ("shadow_texture_window_px", "open_kernel_px", "close_kernel_px", "background_every_frames",
+                     "silhouette_shadow_window_px", "silhouette_close_px", "silhouette_min_solid_px"):
+            check_range(name, getattr(self, name), 1, MAX_KERNEL_PX if name.endswith("_px") else None)
+        for name in ("shadow_min_correlation", "silhouette_shadow_min_correlation", "silhouette_covered_max_correlation"):
+            check_range(name, getattr(self, name), -1.0, 1.0)
+        check_range("shadow_min_texture", self.shadow_min_texture, 0.0)
+        check_range("min_area_fraction", self.min_area_fraction, 0.0, 1.0, high_open=True)
+        check_range("silhouette_threshold", self.silhouette_threshold, 0.0, 255.0)
+        check_interval("silhouette_shadow_ratio", self.silhouette_shadow_ratio, 0.0, 1.0)
+        check_range("silhouette_covered_erode_px", self.silhouette_covered_erode_px, 0, MAX_KERNEL_PX)
+        check_range("silhouette_doubt_max_chroma", self.silhouette_doubt_max_chroma, 0.0, 1.0)
+        check_range("silhouette_doubt_weight", self.silhouette_doubt_weight, 0.0, 1.0)
+        check_range("silhouette_smooth_ratio", self.silhouette_smooth_ratio, 0.0)
         check_range("min_changed_fraction", self.min_changed_fraction, 0.0, 1.0)
-        check_range("silhouette_covered_erode_px", self.silhouette_covered_erode_px, 0)
-        check_range("silhouette_doubt_max_chroma", self.silhouette_doubt_max_chroma, 0.0)
 
     @classmethod
     def from_config(cls, **overrides: object) -> RoiParams:

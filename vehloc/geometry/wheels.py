@@ -22,7 +22,7 @@ import cv2
 import numpy as np
 from scipy.ndimage import map_coordinates
 
-from vehloc.config import check_range, params_from_config
+from vehloc.config import check_interval, check_range, params_from_config
 from vehloc.geometry.projective import ProjectiveTransform
 
 
@@ -53,9 +53,17 @@ class WheelParams:
         check_range("min_rim_px", self.min_rim_px, 0.0, low_open=True)
         check_range("min_axis_ratio", self.min_axis_ratio, 0.0, 1.0)
         check_range("min_ellipse_overlap", self.min_ellipse_overlap, 0.0, 1.0)
-        check_range("tyre_to_rim_range[1]", self.tyre_to_rim_range[1], self.tyre_to_rim_range[0])
+        check_interval("tyre_to_rim_range", self.tyre_to_rim_range, 1.0)  # the ground is outside the rim
+        check_range("tyre_to_rim_nominal", self.tyre_to_rim_nominal, *self.tyre_to_rim_range)
+        for i, contrast in enumerate(self.dark_contrasts):
+            check_range(f"dark_contrasts[{i}]", contrast, 0.0, 255.0, low_open=True)
+        check_range("min_dark_tyre", self.min_dark_tyre, 0.0, 1.0)
+        check_range("tyre_diameter_range_mm[0]", self.tyre_diameter_range_mm[0], 0.0, low_open=True)
         check_range("tyre_diameter_range_mm[1]", self.tyre_diameter_range_mm[1], self.tyre_diameter_range_mm[0])
+        check_range("tyre_width_mm", self.tyre_width_mm, 0.0)
+        check_range("wheelbase_range_mm[0]", self.wheelbase_range_mm[0], 0.0, low_open=True)
         check_range("wheelbase_range_mm[1]", self.wheelbase_range_mm[1], self.wheelbase_range_mm[0])
+        check_range("pair_tolerance_deg", self.pair_tolerance_deg, 0.0, 90.0)
         check_range("min_score", self.min_score, 0.0, 1.0)
 
     @classmethod

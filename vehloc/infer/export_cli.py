@@ -72,18 +72,15 @@ def check_export_config(cfg: DictConfig) -> ExportParams:
 def output_paths(params: ExportParams) -> tuple[Path | None, Path | None]:
     """The fp32 model's output (None when quantizing an earlier export) and the INT8 one's (None without
     quantize=int8), each checked writable and neither an input nor the other."""
-    inputs = [Path(p).resolve() for p in (params.ckpt_path, params.onnx_path) if p]
+    inputs = [p for p in (params.ckpt_path, params.onnx_path) if p]
     fp32 = None
     if params.ckpt_path:
         fp32 = Path(params.output) if params.output else default_output(Path(params.ckpt_path))
-        check_output_file(fp32, "output")
+        check_output_file(fp32, "output", inputs)
     int8 = None
     if params.quantize == "int8":
         int8 = Path(params.int8.output) if params.int8.output else default_int8_output(fp32 or Path(params.onnx_path))
-        check_output_file(int8, "int8.output")
-    for name, path in (("output", fp32), ("int8.output", int8)):
-        if path is not None and path.resolve() in inputs:
-            raise VehlocError(f"{name} {path}: is the input this export reads; write the model elsewhere")
+        check_output_file(int8, "int8.output", inputs)
     if fp32 is not None and int8 is not None and fp32.resolve() == int8.resolve():
         raise VehlocError(f"int8.output {int8}: is the fp32 model's output too; give the INT8 model its own file")
     return fp32, int8

@@ -71,7 +71,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = parser.parse_args(argv)
     if args.csv:
-        check_output_file(args.csv, "--csv")
+        check_output_file(args.csv, "--csv", [args.model, *args.images])
     missing = [image for image in args.images if not image.is_file()]
     if missing:
         state = "is a folder" if missing[0].is_dir() else "image does not exist"

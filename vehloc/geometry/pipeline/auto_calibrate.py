@@ -30,7 +30,7 @@ from vehloc.geometry.outcome import FailedEstimate
 from vehloc.geometry.pipeline.settings import LocalizeSettings
 from vehloc.geometry.pipeline.speed_files import benchmark_calibration
 from vehloc.geometry.pipeline.tracker import StoppedVehicleTracker, VehicleTrack
-from vehloc.geometry.pipeline.video import iter_frames, video_info
+from vehloc.geometry.pipeline.video import VideoFrames
 from vehloc.geometry.roi import VehicleRoiExtractor
 from vehloc.geometry.traffic_evidence import (
     FeatureParams,
@@ -133,7 +133,8 @@ class AutoCalibrationParams:
 class TrafficEvidence:
     """What one pass over a video gathered: the straight paths of points on the vehicles (as segments, and their
     points one a frame), their edges, their finished tracks (boxes and crops) with their outlines in some frames (by
-    track id and frame), the frames read, the image size and the road without traffic."""
+    track id and frame), the frames read, the image size, the road without traffic, and where the video's decoding
+    stopped short of its container's promise (`VideoFrames.early_end`)."""
 
     motion: Segments
     paths: tuple[np.ndarray, ...]
@@ -143,6 +144,7 @@ class TrafficEvidence:
     frames: int
     image_size_px: tuple[int, int]
     background_bgr: np.ndarray
+    early_end: str | None = None
 
 
 def moving_mask(extractor: VehicleRoiExtractor, shape: tuple[int, int]) -> np.ndarray:
@@ -159,8 +161,9 @@ def collect_traffic(video: str | Path, params: AutoCalibrationParams, settings: 
     their edges found (MediaError when it cannot be read). A progress bar with `progress`; None: where stderr is a
     terminal."""
     settings = settings or LocalizeSettings.compose()
-    info = video_info(video)
-    total = info.frame_count if params.max_frames == 0 else min(info.frame_count, params.max_frames)
+    video_frames = VideoFrames(video)
+    info = video_frames.info
+    total = video_frames.frames_to_read(params.max_frames or None)
     extractor = VehicleRoiExtractor(settings.roi)
     tracker = StoppedVehicleTracker(settings.pipeline.vote_frames, settings.tracker, "largest")
     features = FeatureTracks(params.features)
@@ -168,9 +171,9 @@ def collect_traffic(video: str | Path, params: AutoCalibrationParams, settings: 
     finished: list[VehicleTrack] = []
     outlines: dict[int, dict[int, Outline]] = {}
     frames = 0
-    for index, frame in enumerate(tqdm(iter_frames(video), total=total, desc="frames", unit="frame",
+    for index, frame in enumerate(tqdm(video_frames, total=total, desc="frames", unit="frame",
                                        disable=None if progress is None else not progress)):
-        if index >= total:
+        if total is not None and index >= total:
             break
         frames += 1
         update = tracker.update(extractor.apply(frame), index)
@@ -196,7 +199,7 @@ def collect_traffic(video: str | Path, params: AutoCalibrationParams, settings: 
         (info.height_px, info.width_px, 3), np.uint8)
     motion = features.finish()
     return TrafficEvidence(motion, tuple(features.straight_paths), Segments.join(edges), tuple(finished), outlines,
-                           frames, (info.width_px, info.height_px), background)
+                           frames, (info.width_px, info.height_px), background, video_frames.early_end)
 
 
 @dataclass(frozen=True)

@@ -8,6 +8,7 @@ moving straight) is refused with one line and leaves the run folder as it was.""
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -32,7 +33,7 @@ from vehloc.geometry.pipeline.auto_calibrate import (
 from vehloc.geometry.pipeline.auto_calibration_files import write_auto_calibration_files
 from vehloc.geometry.pipeline.settings import LocalizeSettings
 from vehloc.geometry.pipeline.site_calibration import CALIBRATION_MODES, calibrate_site, write_calibration_files
-from vehloc.geometry.pipeline.video import median_background, read_still, video_info
+from vehloc.geometry.pipeline.video import median_background, read_still
 from vehloc.infer.classifier import VehicleClassifier
 
 MODES = (*CALIBRATION_MODES, "auto")
@@ -101,10 +102,9 @@ def check_calibrate_config(cfg: DictConfig) -> CalibrateConfig:
 def run_auto(params: CalibrateParams, auto: AutoCalibrationParams, settings: LocalizeSettings, out_dir: Path) -> None:
     """Calibrate from the video's traffic and write the files; CalibrationError (one line) when it cannot."""
     classifier = VehicleClassifier.from_onnx(params.model)
-    info = video_info(params.video)
-    if info.frame_count < 2:
-        raise CalibrationError(f"{params.video}: {info.frame_count} frame(s); an automatic calibration needs a video")
     evidence = collect_traffic(params.video, auto, settings)
+    if evidence.early_end:
+        print(f"vehloc-calibrate: warning: {evidence.early_end}", file=sys.stderr, flush=True)
     model_of = recognised_models(classifier) if auto.scale_source == "recognised" else mean_size_model(classifier)
     result = auto_calibrate(evidence, model_of, auto, settings.pipeline.border_margin_px)
     if isinstance(result, FailedEstimate):

@@ -7,6 +7,7 @@ override or setting is one line and exit code 1, as in the other CLIs."""
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -15,12 +16,13 @@ from omegaconf import DictConfig, OmegaConf
 
 from vehloc.atomic import check_output_dir
 from vehloc.config import ConfigError, build_params, check_range, config_dir
-from vehloc.errors import exit_on_error, hydra_main
+from vehloc.errors import VehlocError, exit_on_error, hydra_main
 from vehloc.geometry.camera_calibration import read_calibration
 from vehloc.geometry.pipeline.localize import Localizer
 from vehloc.geometry.pipeline.settings import LocalizeSettings
+from vehloc.geometry.pipeline.video import video_info
 from vehloc.geometry.pipeline.video_localization import localize_video
-from vehloc.geometry.truth import read_scene_truth
+from vehloc.geometry.truth import SceneTruth, read_scene_truth
 from vehloc.infer.classifier import VehicleClassifier
 
 REQUIRED = {"video": "the video to localize", "calibration": "calibration.json of vehloc-calibrate for its camera",
@@ -46,6 +48,17 @@ class LocalizeParams:
             check_range("fps", self.fps, 0.0, 1000.0, low_open=True)
 
 
+def check_truth_is_of_the_video(truth: SceneTruth, truth_path: str, video: str) -> None:
+    """VehlocError unless the truth is of a scene filmed as the video is: the same image size and frame count."""
+    info = video_info(video)
+    camera = truth.camera
+    filmed = (camera.width_px, camera.height_px, truth.frame_count)
+    if filmed != (info.width_px, info.height_px, info.frame_count):
+        raise VehlocError(f"truth {truth_path}: is of a scene of {filmed[0]}x{filmed[1]} px and {filmed[2]} frames "
+                          f"({truth.name}), the video {video} has {info.width_px}x{info.height_px} px and "
+                          f"{info.frame_count} frames")
+
+
 @exit_on_error("vehloc-localize")
 def _run(cfg: DictConfig) -> None:
     for key, what in REQUIRED.items():
@@ -58,7 +71,11 @@ def _run(cfg: DictConfig) -> None:
     calibration = read_calibration(params.calibration)
     localizer = Localizer(VehicleClassifier.from_onnx(params.model), calibration, settings)
     truth = read_scene_truth(params.truth) if params.truth else None
+    if truth is not None:
+        check_truth_is_of_the_video(truth, params.truth, params.video)
     run = localize_video(localizer, params.video, out_dir, truth, params.max_frames, params.annotate, fps=params.fps)
+    if run.early_end:
+        print(f"vehloc-localize: warning: {run.early_end}", file=sys.stderr, flush=True)
     if not run.records:
         every = localizer.params.every_frame
         print(f"no vehicle {'in view' if every else 'stopped'} in {params.video}: empty records in {out_dir}")

@@ -44,6 +44,12 @@ class PipelineParams:
 
     def __post_init__(self) -> None:
         check_choice("vote_policy", self.vote_policy, VOTE_POLICIES)
+        check_range("vote_frames", self.vote_frames, 1)
+        check_range("detector_roi_fraction", self.detector_roi_fraction, 0.0, 1.0)
+        check_range("border_margin_px", self.border_margin_px, 0)
+        check_range("min_travel_mm", self.min_travel_mm, 0.0)
+        check_range("uncertainty_top_k", self.uncertainty_top_k, 1)
+        check_range("uncertainty_min_probability", self.uncertainty_min_probability, 0.0, 1.0)
         check_range("motion_window_frames", self.motion_window_frames, 2)
         check_range("motion_max_gap_frames", self.motion_max_gap_frames, 1)
         check_range("motion_jitter_px", self.motion_jitter_px, 0.0)

@@ -20,13 +20,14 @@ from vehloc.geometry.pipeline.localize import Localizer, Status, VehicleRecord
 from vehloc.geometry.pipeline.speed_files import write_speed_files
 from vehloc.geometry.pipeline.track_speed import TrackSpeeds, VehicleSpeed, assign_lanes
 from vehloc.geometry.truth import SceneTruth
-from vehloc.geometry.pipeline.video import iter_frames, video_info
+from vehloc.geometry.pipeline.video import VideoFrames
 
 
 @dataclass(frozen=True)
 class VideoLocalization:
     """The records of one video, its vehicles' speeds and the files written for it (`table2` when truth was given;
-    `speeds` says what the speed files hold)."""
+    `speeds` says what the speed files hold; `early_end`, when the video's decoding stopped short of what its
+    container promises, says where: the records cover the frames decoded)."""
 
     records: tuple[VehicleRecord, ...]
     frames: int
@@ -34,6 +35,7 @@ class VideoLocalization:
     table2: pd.DataFrame | None
     vehicles: tuple[VehicleSpeed, ...] = ()
     speeds: str = ""
+    early_end: str | None = None
 
     @property
     def localized(self) -> int:
@@ -64,20 +66,21 @@ def localize_video(localizer: Localizer, video: str | Path, out_dir: Path, truth
     picture per localized vehicle with `pictures`; Table 2 and its bird's-eye figures with `truth`. The speeds are
     at `fps` frames a second where given (a video whose container states another rate than it was filmed at), else
     at the container's rate."""
-    info = video_info(video)
+    video_frames = VideoFrames(video)
+    info = video_frames.info
     if fps is not None:
         info = replace(info, fps=fps)
     localizer.calibration.check_image_size(info.width_px, info.height_px, str(video))
     out_dir.mkdir(parents=True, exist_ok=True)
-    total = info.frame_count if max_frames is None else min(info.frame_count, max_frames)
+    total = video_frames.frames_to_read(max_frames)
     records: list[VehicleRecord] = []
     vehicles: list[VehicleSpeed] = []
     speeds = TrackSpeeds(localizer.classifier, localizer.calibration, localizer.speed_params, info.fps,
                          localizer.params.motion_jitter_px, 1.0 / localizer.extractor.params.scale)
     frames = 0
-    for frame_index, frame in enumerate(tqdm(iter_frames(video), total=total, desc="frames", unit="frame",
+    for frame_index, frame in enumerate(tqdm(video_frames, total=total, desc="frames", unit="frame",
                                              disable=not progress)):
-        if frame_index >= total:
+        if total is not None and frame_index >= total:
             break
         frames += 1
         for record in localizer.process(frame_index, frame):
@@ -100,4 +103,4 @@ def localize_video(localizer: Localizer, video: str | Path, out_dir: Path, truth
         table = pd.DataFrame(table2_rows(truth, records))
         write_table2(table, out_dir, f"Table 2: {truth.name}")
         write_case_figures(truth, records, out_dir)
-    return VideoLocalization(tuple(records), frames, out_dir, table, tuple(vehicles), summary)
+    return VideoLocalization(tuple(records), frames, out_dir, table, tuple(vehicles), summary, video_frames.early_end)
