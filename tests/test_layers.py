@@ -17,8 +17,8 @@ from pathlib import Path
 import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "vehloc"
-UTILITIES = {"errors", "hardware", "config", "atomic", "tables", "conf", "api", "multirun"}
-FILE_WRITERS = {"atomic"}
+UTILITIES = {"errors", "hardware", "config", "atomic", "tables", "conf", "api", "multirun", "run_manifest"}
+FILE_WRITERS = {"atomic", "run_manifest"}
 ALLOWED = {
     "utilities": UTILITIES,
     "data": UTILITIES | {"data"},

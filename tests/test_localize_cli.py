@@ -141,3 +141,21 @@ def test_a_truth_file_of_another_scene_is_refused(cut_scene: dict[str, Path], tm
     assert_one_error(result, "vehloc-localize", f"truth {other}: is of a scene of 1280x720 px and",
                      f"the video {cut_scene['video']} has 1280x720 px and")
     assert not (tmp_path / "run" / "records.csv").exists()
+
+
+def test_a_second_run_into_the_same_folder_replaces_the_first_runs_outputs_only(cut_scene: dict[str, Path],
+                                                                               tmp_path: Path) -> None:
+    """Rerunning into an old run folder left the old Table 2 beside the new records; the run folder's manifest
+    (`outputs.json`) names what a run wrote, and the next run removes exactly that before writing its own."""
+    run = tmp_path / "run"
+    first = _localize(cut_scene, run, f"truth={cut_scene['video'].parent / 'ground_truth.json'}")
+    assert first.returncode == 0, first.stderr[-2000:]
+    assert (run / "table2.md").is_file() and "table2.md" in json.loads((run / "outputs.json").read_text())["files"]
+    mine = run / "my_notes.txt"
+    mine.write_text("a user's own file")
+    second = _localize(cut_scene, run, f"max_frames={EMPTY_FRAMES - 10}")
+    assert second.returncode == 0, second.stderr[-2000:]
+    assert not (run / "table2.md").exists() and not (run / "table2.csv").exists()
+    assert json.loads((run / "records.json").read_text()) == [] and mine.read_text() == "a user's own file"
+    written = json.loads((run / "outputs.json").read_text())["files"]
+    assert {"records.csv", "records.json"} <= set(written) and not {"table2.md", "my_notes.txt"} & set(written)

@@ -66,8 +66,9 @@ class RoiParams:
         check_range("var_threshold", self.var_threshold, 0.0, low_open=True)
         check_range("shadow_threshold", self.shadow_threshold, 0.0, 1.0)
         for name in ("shadow_texture_window_px", "open_kernel_px", "close_kernel_px", "background_every_frames",
-                     "silhouette_shadow_window_px", "silhouette_close_px", "silhouette_min_solid_px"):
+                     "silhouette_shadow_window_px", "silhouette_close_px"):
             check_range(name, getattr(self, name), 1, MAX_KERNEL_PX if name.endswith("_px") else None)
+        check_range("silhouette_min_solid_px", self.silhouette_min_solid_px, 1)  # a patch's pixel count
         for name in ("shadow_min_correlation", "silhouette_shadow_min_correlation", "silhouette_covered_max_correlation"):
             check_range(name, getattr(self, name), -1.0, 1.0)
         check_range("shadow_min_texture", self.shadow_min_texture, 0.0)

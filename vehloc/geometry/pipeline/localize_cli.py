@@ -24,6 +24,7 @@ from vehloc.geometry.pipeline.video import video_info
 from vehloc.geometry.pipeline.video_localization import localize_video
 from vehloc.geometry.truth import SceneTruth, read_scene_truth
 from vehloc.infer.classifier import VehicleClassifier
+from vehloc.run_manifest import RunManifest
 
 REQUIRED = {"video": "the video to localize", "calibration": "calibration.json of vehloc-calibrate for its camera",
             "model": "an ONNX classifier written by vehloc-export"}
@@ -73,7 +74,9 @@ def _run(cfg: DictConfig) -> None:
     truth = read_scene_truth(params.truth) if params.truth else None
     if truth is not None:
         check_truth_is_of_the_video(truth, params.truth, params.video)
+    manifest = RunManifest(out_dir)  # an earlier run's outputs in this folder go; none of anything else
     run = localize_video(localizer, params.video, out_dir, truth, params.max_frames, params.annotate, fps=params.fps)
+    manifest.close()
     if run.early_end:
         print(f"vehloc-localize: warning: {run.early_end}", file=sys.stderr, flush=True)
     if not run.records:
