@@ -449,3 +449,17 @@ def test_an_experiment_script_answers_bad_input_in_one_line(kind: str, tmp_path:
                             capture_output=True, text=True, env=cli_env(), timeout=300)
     assert_one_error(result, script, fragment)
     assert "Traceback" not in result.stderr and not (tmp_path / "out").exists()
+
+
+def test_a_read_only_run_folder_is_one_line_before_any_work(tmp_path: Path) -> None:
+    """An existing run folder on a read-only file system failed inside Hydra's logging set-up with a traceback; it
+    is one line naming the log file, exit code 1, before any input is read."""
+    folder = tmp_path / "ro"
+    (folder / "run").mkdir(parents=True)
+    if not read_only_supported(folder):
+        pytest.skip("cannot mount a read-only file system here")
+    result = run_cli_read_only(folder, "vehloc-localize", f"video={tmp_path / 'none.avi'}",
+                               f"calibration={tmp_path / 'none.json'}", f"model={tmp_path / 'none.onnx'}",
+                               f"hydra.run.dir={folder / 'run'}")
+    assert_one_error(result, "vehloc-localize", f"{folder / 'run' / 'localize.log'}: cannot write the run's log there",
+                     "Read-only file system")

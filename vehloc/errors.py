@@ -65,7 +65,8 @@ def os_error_line(exc: OSError) -> str:
 
 def exit_on_error(prog: str):
     """Decorate a console-script main: a VehlocError becomes its message on stderr and exit code 1, as does an
-    OSError (the file and the system's reason, or the reason alone where it names no file), or in a multirun job a record of the failure (`_fail`); Ctrl-C (KeyboardInterrupt) becomes
+    OSError (the file and the system's reason, or the reason alone where it names no file); in a multirun job
+    either becomes a record of the failure instead (`_fail`); Ctrl-C (KeyboardInterrupt) becomes
     `<prog>: interrupted` and exit code 130."""
 
     def decorate(main):
@@ -142,6 +143,13 @@ def hydra_main(prog: str, config_path: str, config_name: str) -> Callable[[Calla
                 if user_wants_traces:
                     raise
                 _report(prog, f"error: {hydra_error_line(exc)}")
+                raise SystemExit(1) from None
+            except ValueError as exc:  # logging's "Unable to configure handler": the run folder's log cannot be written
+                cause = exc.__cause__ or exc.__context__
+                if user_wants_traces or not (isinstance(cause, OSError) and cause.filename):
+                    raise
+                _report(prog, f"error: {cause.filename}: cannot write the run's log there "
+                              f"({cause.strerror or type(cause).__name__})")
                 raise SystemExit(1) from None
             except KeyboardInterrupt:
                 _report(prog, "interrupted")
