@@ -110,12 +110,15 @@ CLI_CASES = {
     "speed_reference": (["speed.reference=wheels"], "speed.reference"),
     "unknown_experiment": (["experiment=nope"], "experiment/nope"),
     "no_video": (["calibration=c.json", "model=m.onnx"], "video=PATH is required"),
+    "run_dir_is_a_file": (["hydra.run.dir=file.txt"], "file.txt: exists and is not a folder"),
+    "scale_50": (["roi.scale=50"], "roi.scale: must be in (0, 1], got 50.0"),
 }
 
 
 @pytest.fixture(scope="module")
 def cli_results(tmp_path_factory: pytest.TempPathFactory) -> dict:
     folder = tmp_path_factory.mktemp("localize_settings")
+    (folder / "file.txt").write_text("not a folder")
     base = ["video=missing.avi", "calibration=missing.json", "model=missing.onnx", f"hydra.run.dir={folder / 'run'}"]
     runs = {name: ("vehloc-localize", (base if name != "no_video" else base[3:]) + overrides, folder)
             for name, (overrides, _) in CLI_CASES.items()}
