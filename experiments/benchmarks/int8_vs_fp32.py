@@ -26,7 +26,7 @@ import onnxruntime as ort
 import pandas as pd
 from matplotlib.figure import Figure
 
-from vehloc.atomic import write_text
+from vehloc.atomic import atomic_path, write_text
 from vehloc.geometry.camera_calibration import read_calibration
 from vehloc.geometry.pipeline.localize import Localizer
 from vehloc.geometry.speed import SpeedFit
@@ -134,7 +134,8 @@ def write_png(table: pd.DataFrame, path: Path, title: str) -> None:
     ax.set_title(textwrap.fill(title, 120), fontsize=8)
     ax.legend()
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    with atomic_path(path, ".png") as temporary:
+        fig.savefig(temporary, dpi=120)
 
 
 @exit_on_error("experiments/benchmarks/int8_vs_fp32.py")

@@ -14,6 +14,7 @@ import torch
 
 from vehloc.data.preprocess import Preprocessing
 from vehloc.errors import VehlocError
+from vehloc.train.classes import class_mismatch
 
 PREPROCESSING_KEY = "preprocessing"
 CLASS_TABLE_KEYS = ("class_model_ids", "class_makes", "class_models", "class_dims_mm")
@@ -84,32 +85,8 @@ def check_classes(
     """CheckpointError unless the checkpoint was trained on exactly these classes: the same model ids in the same
     order and, when given, the same make and model names; the message says how they differ."""
     hp = checkpoint["hyper_parameters"]
-    trained = [int(m) for m in hp["class_model_ids"]]
-    data = [int(m) for m in class_model_ids]
-    if trained != data:
-        detail = ""
-        only_checkpoint = sorted(set(trained) - set(data))
-        only_data = sorted(set(data) - set(trained))
-        if only_checkpoint or only_data:
-            detail = (f"; only in the checkpoint: {_abbrev(only_checkpoint) or 'none'}, "
-                      f"only in {data_name}: {_abbrev(only_data) or 'none'}")
-        raise CheckpointError(
-            f"{path}: checkpoint has {len(trained)} classes (model ids {_abbrev(trained)}), "
-            f"{data_name} has {len(data)} (model ids {_abbrev(data)}){detail}"
-        )
-    if class_makes is None or class_models is None:
-        return
-    names = list(zip(hp["class_makes"], hp["class_models"]))
-    differing = [(m, a, b) for m, a, b in zip(trained, names, zip(class_makes, class_models)) if tuple(a) != tuple(b)]
-    if differing:
-        model_id, (make_a, model_a), (make_b, model_b) = differing[0]
-        raise CheckpointError(
-            f"{path}: the checkpoint's classes are not those of {data_name}: the model ids match but "
-            f"{len(differing)} of {len(trained)} names differ, e.g. model {model_id} is '{make_a} {model_a}' in the "
-            f"checkpoint and '{make_b} {model_b}' in {data_name} (another data set numbered the same way?)"
-        )
-
-
-def _abbrev(ids: Sequence[int], shown: int = 6) -> str:
-    head = ", ".join(map(str, ids[:shown]))
-    return head + (f", ... ({len(ids)} in all)" if len(ids) > shown else "")
+    data_names = None if class_makes is None or class_models is None else list(zip(class_makes, class_models))
+    names = [] if data_names is None else list(zip(hp["class_makes"], hp["class_models"]))
+    mismatch = class_mismatch("checkpoint", hp["class_model_ids"], names, class_model_ids, data_names, data_name)
+    if mismatch:
+        raise CheckpointError(f"{path}: {mismatch}")

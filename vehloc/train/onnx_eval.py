@@ -13,25 +13,12 @@ from vehloc.errors import VehlocError
 from vehloc.hardware import cpu_info
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.infer.labelled import predict_labelled
-from vehloc.train.classes import class_info, read_dataset, read_specs
+from vehloc.train.classes import class_info, class_mismatch, read_dataset, read_specs
 from vehloc.train.params import DataParams
 from vehloc.train.report import write_report
 from vehloc.train.table1 import ClassTable, evaluate_predictions
 
 PROVIDERS = ["CPUExecutionProvider"]
-
-
-def check_model_classes(classifier: VehicleClassifier, classes: dict[str, list], data_name: str) -> None:
-    """VehlocError unless the model's classes are the data's: the same model ids, in the same order, with the
-    same make and model names (a model scored on another set numbered alike gives a meaningless Table 1)."""
-    model = [(c.model_id, c.make, c.model) for c in classifier.classes]
-    data = list(zip(classes["class_model_ids"], classes["class_makes"], classes["class_models"]))
-    if model != data:
-        first = next((i for i, (a, b) in enumerate(zip(model, data)) if a != b), min(len(model), len(data)))
-        shown = [f"{m[0]} {m[1]} {m[2]}" if m else "none" for m in
-                 (model[first] if first < len(model) else None, data[first] if first < len(data) else None)]
-        raise VehlocError(f"{classifier.source}: the model has {len(model)} classes, {data_name} has {len(data)}; "
-                          f"class {first} is {shown[0]} in the model, {shown[1]} in the data")
 
 
 def evaluate_onnx(onnx_path: str | Path, data: DataParams, out_dir: Path) -> dict[str, float]:
@@ -41,7 +28,11 @@ def evaluate_onnx(onnx_path: str | Path, data: DataParams, out_dir: Path) -> dic
     classifier = VehicleClassifier.from_onnx(onnx_path, PROVIDERS)
     dataset = read_dataset(data.root)
     classes = class_info(dataset, read_specs(data.specs_csv or Path(data.root) / "specs.csv", dataset))
-    check_model_classes(classifier, classes, f"data.root {data.root}")
+    mismatch = class_mismatch(  # a model scored on another set numbered alike gives a meaningless Table 1
+        "model", [c.model_id for c in classifier.classes], [(c.make, c.model) for c in classifier.classes],
+        classes["class_model_ids"], list(zip(classes["class_makes"], classes["class_models"])), f"data.root {data.root}")
+    if mismatch:
+        raise VehlocError(f"{classifier.source}: {mismatch}")
     if not dataset.test:
         raise VehlocError(f"data.root {data.root}: the test split is empty")
     metadata = classifier.metadata
