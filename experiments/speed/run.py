@@ -49,7 +49,8 @@ SETTINGS = {"traffic_240p": ["experiment=traffic", "roi.scale=1"], "traffic_720p
 320x240 highway clip), above it on frames shrunk by half (the default)."""
 SPLITS = {
     "dev": [("traffic_720p", 0), ("traffic_240p", 0), ("traffic_1080p", 0)],
-    "heldout": [("traffic_720p", 100), ("traffic_720p", 101), ("traffic_720p", 102), ("traffic_240p", 100),
+    "heldout": [("traffic_720p", 100), ("traffic_720p", 101), ("traffic_720p", 102), ("traffic_720p", 103),
+                ("traffic_720p", 104), ("traffic_240p", 100),
                 ("traffic_240p", 101), ("traffic_1080p", 100)],
 }
 BARS = {"traffic_720p": {"median_error_kmh": 0.5, "mean_error_kmh": 1.0, "p95_error_kmh": 2.0, "recall": 0.95,
@@ -82,13 +83,15 @@ def prepare(case: Case, folder: Path, duration_s: float, force: bool) -> None:
         calibrate_case(folder, CALIBRATION_MODE[case.scene], 5000.0)
 
 
-def measure(case: Case, folder: Path, classifier: VehicleClassifier) -> dict[str, object]:
-    """The case's vehicles measured and scored; its row of the table."""
+def measure(case: Case, folder: Path, classifier: VehicleClassifier, overrides: list[str]) -> dict[str, object]:
+    """The case's vehicles measured (with `vehloc-localize`'s `overrides` beside the size's own) and scored; its row
+    of the table."""
     calibration = read_calibration(folder / "calibration" / "calibration.json")
     if case.true_model:
         classifier = TrueModelClassifier(TRUE_MODEL_ID)
     started = time.perf_counter()
-    run = localize_video(Localizer(classifier, calibration, LocalizeSettings.compose(SETTINGS[case.scene])),
+    settings = LocalizeSettings.compose(SETTINGS[case.scene] + overrides)
+    run = localize_video(Localizer(classifier, calibration, settings),
                          folder / "scene" / "video.avi", folder / "localize", pictures=False, progress=False)
     seconds = time.perf_counter() - started
     truth = read_ground_truth(folder / "scene" / "gt_data.json")
@@ -177,6 +180,8 @@ def main() -> None:
     parser.add_argument("--duration-s", type=float, default=60.0, help="the traffic's length in each case")
     parser.add_argument("--true-model", action="store_true", help="also the same traffic of one model, that model named")
     parser.add_argument("--force", action="store_true", help="render and calibrate again")
+    parser.add_argument("--set", nargs="*", default=[], metavar="SETTING=VALUE",
+                        help="vehloc-localize settings for every case (speed.candidates=1: the vote's first model alone)")
     args = parser.parse_args()
     if not args.model.is_file():
         raise SystemExit(f"--model {args.model}: no such file")
@@ -184,11 +189,13 @@ def main() -> None:
     splits = ["dev", "heldout"] if args.split == "all" else [args.split]
     cases = [Case(split, scene, seed, true_model) for split in splits for scene, seed in SPLITS[split]
              for true_model in ([False, True] if args.true_model else [False])]
+    for scene in {case.scene for case in cases}:
+        LocalizeSettings.compose(SETTINGS[scene] + args.set)  # a bad --set refused before any case runs
     rows, folders = [], {}
     for number, case in enumerate(cases, 1):
         started, folder = time.perf_counter(), args.out / case.name
         prepare(case, folder, args.duration_s, args.force)
-        rows.append({"case": case.name, **measure(case, folder, classifier)})
+        rows.append({"case": case.name, **measure(case, folder, classifier, args.set)})
         folders[case.name] = folder
         print(f"[{number}/{len(cases)}] {case.name} ({case.split}): recall {rows[-1]['recall']:.3f}, median / mean "
               f"{rows[-1]['median_error_kmh']:.2f} / {rows[-1]['mean_error_kmh']:.2f} km/h, "

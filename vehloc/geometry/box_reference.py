@@ -64,6 +64,17 @@ def box_mismatch(camera: PinholeCamera, shape: VehicleShape, box: Box, centre_mm
     return float(np.max(np.clip(np.abs(observed - expected) - 2.0 * block_px, 0.0, None) / expected))
 
 
+def box_height_excess(camera: PinholeCamera, shape: VehicleShape, box: Box, centre_mm: np.ndarray,
+                      heading_deg: float) -> float:
+    """How much taller `box` is than the shape's box at `centre_mm` (a fraction of the shape's; NaN where the shape
+    cannot be projected): the cast shadow and blur below a vehicle of the right model, the model's error besides."""
+    pixels = shape_pixels(camera, shape, centre_mm, heading_deg)
+    if not np.all(np.isfinite(pixels)) or np.ptp(pixels[:, 1]) <= 0:
+        return float("nan")
+    shape_height_px = float(np.ptp(pixels[:, 1]))
+    return (box.height_px - shape_height_px) / shape_height_px
+
+
 def centre_from_box(camera: PinholeCamera, shape: VehicleShape, box: Box, heading_deg: float, start_mm: np.ndarray,
                     edge: str, block_px: float = 1.0, extra_inset_px: float = 0.0) -> np.ndarray | NotPlaced:
     """The footprint centre (mm) at which the shape, heading `heading_deg`, has `box`'s `edge` middle

@@ -1,7 +1,7 @@
 """The localization pipeline: the geometry of `vehloc.geometry` run over a video with the classifier. The
 frames' vehicle boxes are followed by the tracker (one `VehicleTrack` per vehicle, removed when lost), each
 track's crops are voted on once, the stopped (or every) vehicle is placed and fitted, and each outcome is a
-`VehicleRecord`; every finished track becomes a `VehicleSpeed` (path, speed, lane); around it the video reading, the
+`VehicleRecord`; every finished track becomes a `VehicleSpeed` (path, speed, lane; its model checked against its boxes' height); around it the video reading, the
 records' and speeds' files and pictures, the speed benchmark's files and scoring, Table 2 against a scene's truth,
 the site calibration's files, the automatic calibration from a video's traffic and its files, and the `vehloc-localize`, `vehloc-calibrate` and `vehloc-speed-eval` CLIs. The names
 below are its API."""
@@ -16,6 +16,7 @@ __all__, __getattr__ = lazy_api(__name__, {
                    "results_json"],
     "evaluation": ["table2_rows", "write_table2"],
     "localize": ["Estimate", "Localizer", "Status", "VehicleRecord", "localize_frames"],
+    "model_choice": ["BoxHeightReference", "box_height_reference", "choose_models"],
     "settings": ["LocalizeSettings", "PipelineParams"],
     "site_calibration": ["SiteCalibration", "calibrate_site", "write_calibration_files"],
     "speed_eval": ["SpeedScore", "score_speeds"],
@@ -23,7 +24,8 @@ __all__, __getattr__ = lazy_api(__name__, {
     "speed_report": ["write_score"],
     "table2": ["PoseError", "pose_error"],
     "timing": ["StageClock"],
-    "track_speed": ["SpeedParams", "SpeedStatus", "TrackSpeeds", "VehiclePath", "VehicleSpeed", "assign_lanes"],
+    "track_speed": ["ModelCandidate", "ModelSource", "SpeedParams", "SpeedStatus", "TrackSpeeds", "VehiclePath",
+                    "VehicleSpeed", "assign_lanes"],
     "tracker": ["StoppedVehicleTracker", "TrackerParams", "TrackerUpdate", "TrackState", "VehicleTrack"],
     "travel": ["Travel", "track_travel"],
     "video": ["MediaError", "VideoInfo", "iter_frames", "read_still", "video_info"],

@@ -1,7 +1,9 @@
 """Every vehicle's path and speed, once its track is removed (or the video ends): its voted model, its reference
 point on the road in every frame the frame's edge does not cut it (the footprint centre at which the model's shape
 has the box's top where the vehicle's box has it, `vehloc.geometry.box_reference`), the constant-velocity speed
-through them with its 1-sigma, and its lane."""
+through them with its 1-sigma, and its lane. The vote's `candidates` likeliest models are each measured so, for
+`vehloc.geometry.pipeline.model_choice` to check the vote against the vehicle's boxes once the video's vehicles are
+known."""
 
 from __future__ import annotations
 
@@ -12,7 +14,7 @@ from enum import StrEnum
 import numpy as np
 
 from vehloc.config import check_choice, check_range, params_from_config
-from vehloc.geometry.box_reference import box_mismatch, centre_from_box
+from vehloc.geometry.box_reference import box_height_excess, box_mismatch, centre_from_box
 from vehloc.geometry.camera_calibration import CameraCalibration
 from vehloc.geometry.motion import path_heading
 from vehloc.geometry.outcome import NotPlaced, ReasonCode
@@ -38,8 +40,16 @@ class SpeedParams:
     lane_gap_mm: float
     max_box_mismatch: float
     edge_inset_px: float
+    candidates: int
+    reference_min_probability: float
+    min_reference_vehicles: int
+    min_excess_sigma: float
 
     def __post_init__(self) -> None:
+        check_range("candidates", self.candidates, 1)
+        check_range("reference_min_probability", self.reference_min_probability, 0.0, 1.0)
+        check_range("min_reference_vehicles", self.min_reference_vehicles, 1)
+        check_range("min_excess_sigma", self.min_excess_sigma, 0.0, 1.0, low_open=True)
         check_range("edge_inset_px", self.edge_inset_px, -2.0, 2.0)
         check_range("max_box_mismatch", self.max_box_mismatch, 0.0, low_open=True)
         check_choice("reference", self.reference, REFERENCES)
@@ -76,8 +86,31 @@ class VehiclePath:
 
 
 @dataclass(frozen=True)
+class ModelCandidate:
+    """One of a vehicle's likeliest models by its track's vote: the model, the vote's probability, the path and speed
+    its shape gives the vehicle's boxes, and how much taller those boxes are than the shape's (the median over the
+    path's frames of (box height - shape's box height) / shape's: the cast shadow and blur under every vehicle of a
+    video; NaN without a path)."""
+
+    model_id: int
+    make: str
+    model: str
+    probability: float
+    dims_mm: tuple[float, float, float]
+    path: VehiclePath
+    speed: SpeedFit | NotPlaced
+    box_height_excess: float = float("nan")
+
+
+class ModelSource(StrEnum):
+    VOTE = "vote"
+    BOX_HEIGHT = "vote and box height"
+
+
+@dataclass(frozen=True)
 class VehicleSpeed:
-    """One vehicle of a video: its track, frames, voted model, path, speed (or why none) and lane."""
+    """One vehicle of a video: its track, frames, model, path, speed (or why none) and lane; the vote's likeliest
+    models each measured (`candidates`, the vote's first first) and where the model came from (`model_source`)."""
 
     track_id: int
     first_frame: int
@@ -91,6 +124,14 @@ class VehicleSpeed:
     probability: float | None = None
     dims_mm: tuple[float, float, float] | None = None
     lane: int | None = None
+    candidates: tuple[ModelCandidate, ...] = ()
+    model_source: ModelSource = ModelSource.VOTE
+
+    def with_candidate(self, candidate: ModelCandidate, source: ModelSource) -> VehicleSpeed:
+        """The vehicle as `candidate`'s model, path and speed make it."""
+        return replace(self, model_id=candidate.model_id, make=candidate.make, model=candidate.model,
+                       probability=candidate.probability, dims_mm=candidate.dims_mm, path=candidate.path,
+                       speed=candidate.speed, model_source=source)
 
     @property
     def status(self) -> SpeedStatus:
@@ -109,6 +150,8 @@ class VehicleSpeed:
             "track_id": self.track_id, "first_frame": self.first_frame, "last_frame": self.last_frame,
             "first_time_s": self.first_frame / self.fps, "last_time_s": self.last_frame / self.fps, "lane": self.lane,
             "model_id": self.model_id, "make": self.make, "model": self.model, "probability": self.probability,
+            "model_source": self.model_source.value,
+            "voted_model_id": self.candidates[0].model_id if self.candidates else self.model_id,
             **dict(zip(("length_mm", "width_mm", "height_mm"), self.dims_mm or (None, None, None))),
             **{name: None if fit is None else getattr(fit, name) for name in FIT_COLUMNS},
             "points": len(self.path.frames) if fit is None else fit.points,
@@ -130,9 +173,12 @@ class VehicleSpeed:
                                                      self.used)]
 
 
+EMPTY_PATH = VehiclePath(np.zeros(0, int), np.zeros((0, 2)), np.zeros((0, 2)), np.zeros((0, 4), int))
+
+
 class TrackSpeeds:
-    """Turns removed tracks into `VehicleSpeed`s: the classifier names each track's model (track voting), whose
-    shape takes its box's edge to its footprint centre (boxes found on frames shrunk `box_block_px` times)."""
+    """Turns removed tracks into `VehicleSpeed`s: the classifier names each track's likeliest models (track voting),
+    whose shapes take its box's edge to its footprint centre (boxes found on frames shrunk `box_block_px` times)."""
 
     def __init__(self, classifier: VehicleClassifier, calibration: CameraCalibration, params: SpeedParams,
                  fps: float, heading_jitter_px: float, box_block_px: float) -> None:
@@ -144,55 +190,68 @@ class TrackSpeeds:
         self.box_block_px = box_block_px
 
     def measure(self, track: VehicleTrack) -> VehicleSpeed:
-        """The vehicle of a finished track."""
+        """The vehicle of a finished track, as the vote's likeliest model makes it, with every candidate measured."""
         frames = np.array(track.ground_frames, dtype=int)
         bottoms = np.array(track.ground_points_mm, dtype=float).reshape(-1, 2)
-        empty = VehiclePath(np.zeros(0, int), np.zeros((0, 2)), np.zeros((0, 2)), np.zeros((0, 4), int))
-        vehicle = VehicleSpeed(track.track_id, track.frames[0], track.last_frame, self.fps, empty,
+        vehicle = VehicleSpeed(track.track_id, track.frames[0], track.last_frame, self.fps, EMPTY_PATH,
                                NotPlaced(ReasonCode.TOUCHES_EDGE, "the frame's edge cut it in every frame"))
         if track.votes.empty:
             return replace(vehicle, speed=NotPlaced(ReasonCode.TOO_SMALL_TO_CLASSIFY,
                                                     "its box was never big enough to classify"))
         probabilities = track.votes.vote(self.classifier)
-        top1 = self.classifier.predictions(probabilities[None], top_k=1)[0].top1
-        spec = next(c for c in self.classifier.classes if c.model_id == top1.model_id)
-        vehicle = replace(vehicle, model_id=top1.model_id, make=top1.make, model=top1.model,
-                          probability=top1.probability, dims_mm=tuple(float(v) for v in spec.dims_mm))
-        if len(frames) == 0:
-            return vehicle
+        likeliest = self.classifier.predictions(probabilities[None], top_k=self.params.candidates)[0].top_k
+        likeliest = likeliest[:1] + tuple(c for c in likeliest[1:] if c.probability > 0.0)
         heading = path_heading(bottoms, frames.astype(float), self.params.min_distance_mm,
-                               self.calibration.road_to_image, self.heading_jitter_px)
-        if heading is None:
-            return replace(vehicle, speed=NotPlaced(ReasonCode.PATH_TOO_SHORT,
-                                                    "its path is too short to tell its direction"))
-        points = bottoms
+                               self.calibration.road_to_image, self.heading_jitter_px) if len(frames) else None
+        if len(frames) and heading is None:
+            vehicle = replace(vehicle, speed=NotPlaced(ReasonCode.PATH_TOO_SHORT,
+                                                       "its path is too short to tell its direction"))
         boxes = dict(zip(track.frames, track.boxes))
+        candidates = tuple(self.candidate(c.model_id, c.probability, frames, bottoms, boxes,
+                                          None if heading is None else heading.heading_deg, vehicle.speed)
+                           for c in likeliest)
+        return replace(vehicle, candidates=candidates).with_candidate(candidates[0], ModelSource.VOTE)
+
+    def candidate(self, model_id: int, probability: float, frames: np.ndarray, bottoms: np.ndarray, boxes: dict,
+                  heading_deg: float | None, failure: NotPlaced) -> ModelCandidate:
+        """The vehicle measured as `model_id`: its path and speed (`failure` where there is no heading to measure
+        along) and how much taller its boxes are than the model's shape."""
+        spec = next(c for c in self.classifier.classes if c.model_id == model_id)
+        candidate = ModelCandidate(model_id, spec.make, spec.model, probability,
+                                   tuple(float(v) for v in spec.dims_mm), EMPTY_PATH, failure)
+        if heading_deg is None:
+            return candidate
+        points, excess = bottoms, float("nan")
         if self.params.reference != "box_bottom":
-            kept, centres = self.centres(spec.model_id, frames, bottoms, boxes, heading.heading_deg)
+            kept, centres, excesses = self.centres(model_id, frames, bottoms, boxes, heading_deg)
             frames, points = frames[kept], centres[kept].reshape(-1, 2)
+            excess = float(np.median(excesses[kept])) if kept.any() else float("nan")
         path = VehiclePath(frames, points, self.calibration.road_to_image(points) if len(points) else np.zeros((0, 2)),
                            np.array([[b.x0, b.y0, b.x1, b.y1] for b in (boxes[f] for f in frames)], int).reshape(-1, 4))
         speed = fit_speed(points, frames / self.fps, self.scale_sigma_fraction(points), self.params.min_points,
                           self.params.min_distance_mm)
-        return replace(vehicle, path=path, speed=speed)
+        return replace(candidate, path=path, speed=speed, box_height_excess=excess)
 
-    def centres(self, spec_model_id: int, frames: np.ndarray, bottoms: np.ndarray, boxes: dict,
-                heading_deg: float) -> tuple[np.ndarray, np.ndarray]:
-        """Which frames are kept and their footprint centres (N, 2 mm) from the boxes' edge and the model's shape
-        (`centre_from_box`): a frame is kept where the centre was found and its box is the size of the model's there
+    def centres(self, model_id: int, frames: np.ndarray, bottoms: np.ndarray, boxes: dict,
+                heading_deg: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Which frames are kept, their footprint centres (N, 2 mm) from the boxes' edge and the model's shape
+        (`centre_from_box`) and how much taller each box is than the shape's there (`box_height_excess`; NaN where no
+        centre was found): a frame is kept where the centre was found and its box is the size of the model's there
         (`max_box_mismatch`)."""
         camera, edge = self.calibration.camera, self.params.reference.removeprefix("shape_")
-        shape = self.classifier.metadata.shape_of(spec_model_id)
+        shape = self.classifier.metadata.shape_of(model_id)
         centres = np.full((len(frames), 2), np.nan)
+        excesses = np.full(len(frames), np.nan)
         kept = np.zeros(len(frames), bool)
         for f, (frame, bottom) in enumerate(zip(frames, bottoms)):
             centre = centre_from_box(camera, shape, boxes[frame], heading_deg, bottom, edge, self.box_block_px,
                                      self.params.edge_inset_px)
             if not isinstance(centre, NotPlaced):
                 centres[f] = centre
+                excesses[f] = box_height_excess(camera, shape, boxes[frame], centre, heading_deg)
                 kept[f] = box_mismatch(camera, shape, boxes[frame], centre, heading_deg,
                                        self.box_block_px) <= self.params.max_box_mismatch
-        return kept, centres
+        return kept, centres, excesses
 
     def scale_sigma_fraction(self, points_mm: np.ndarray) -> float:
         """The calibration's relative error over a path: its reprojection error at the path's middle, in mm on the

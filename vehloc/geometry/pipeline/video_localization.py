@@ -18,6 +18,7 @@ from vehloc.geometry.pipeline.drawing import METHOD_COLOURS_BGR, draw_cuboid, wr
 from vehloc.geometry.pipeline.evaluation import table2_rows, write_case_figures, write_table2
 from vehloc.geometry.pipeline.localize import Localizer, Status, VehicleRecord
 from vehloc.geometry.pipeline.speed_files import write_speed_files
+from vehloc.geometry.pipeline.model_choice import choose_models
 from vehloc.geometry.pipeline.track_speed import TrackSpeeds, VehicleSpeed, assign_lanes
 from vehloc.geometry.truth import SceneTruth
 from vehloc.geometry.pipeline.video import VideoFrames
@@ -96,7 +97,8 @@ def localize_video(localizer: Localizer, video: str | Path, out_dir: Path, truth
     write_text(out_dir / "records.json", records_json(records))
     summary = ""
     if localizer.speed_params.enabled:
-        vehicles = assign_lanes(sorted(vehicles, key=lambda v: v.track_id), localizer.speed_params)
+        vehicles = choose_models(sorted(vehicles, key=lambda v: v.track_id), localizer.speed_params)
+        vehicles = assign_lanes(vehicles, localizer.speed_params)
         summary = write_speed_files(vehicles, localizer.calibration, out_dir, str(video), info.fps, pictures)
     table = None
     if truth is not None:
