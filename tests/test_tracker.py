@@ -62,3 +62,46 @@ def test_the_tracker_holds_only_the_tracks_in_view() -> None:
     assert max(held) <= 3
     assert removed == 998 and [track.track_id for track in t.tracks] == [999, 1000]  # the last two still in view
     assert t.started == 1000
+
+
+def _car(x0: int, y0: int) -> Box:
+    return Box(x0, y0, x0 + 60, y0 + 40)
+
+
+def _overtaking(frame: int) -> list[Box]:
+    """The background model's boxes: a fast car (6 px a frame) overtakes a slow one (1 px a frame) a little above it;
+    from frame 12 to 27 their blobs merge into one box, then they part."""
+    fast, slow = _car(100 + 6 * frame, 200), _car(160 + frame, 185)
+    if 12 <= frame <= 27:
+        return [Box(min(fast.x0, slow.x0), slow.y0, max(fast.x1, slow.x1), fast.y1)]
+    return [fast, slow]
+
+
+def test_a_box_is_looked_for_where_its_motion_takes_it() -> None:
+    t = StoppedVehicleTracker(4, TrackerParams.from_config(motion_frames=5))
+    (track,) = t.update([_car(100, 200)], 0).seen
+    for frame in range(1, 6):
+        t.update([_car(100 + 6 * frame, 200 + 2 * frame)], frame)
+    # exact: the edges moved 6 and 2 px a frame; three frames missed, it should be 3 frames further on
+    assert track.predicted_box(9, 5) == _car(154, 218)
+    assert track.predicted_box(9, 0) == track.box  # motion off: where it was last seen
+
+
+def test_two_vehicles_whose_blobs_merge_keep_their_tracks_when_they_part() -> None:
+    t = StoppedVehicleTracker(4, TrackerParams.from_config(motion_frames=5, max_shared_frames=50))
+    fast, slow = sorted(t.update(_overtaking(0), 0).seen, key=lambda track: track.box.y0, reverse=True)
+    for frame in range(1, 40):
+        update = t.update(_overtaking(frame), frame)
+        if 12 <= frame <= 27:  # the merged box is neither's: both wait, sharing it, and no track starts
+            assert update.seen == [] and {track.shared_box for track in t.tracks} == {_overtaking(frame)[0]}
+    assert t.started == 2 and t.tracks == [fast, slow] or t.tracks == [slow, fast]
+    assert fast.box == _car(100 + 6 * 39, 200) and slow.box == _car(160 + 39, 185)
+    assert [f for f in fast.frames if 12 <= f <= 27] == [] and len(fast.frames) == len(slow.frames) == 40 - 16
+
+
+def test_without_sharing_the_larger_track_takes_the_merged_box_and_goes_on_as_the_other_vehicle() -> None:
+    t = StoppedVehicleTracker(4, TrackerParams.from_config(motion_frames=5, max_shared_frames=0))
+    fast, slow = sorted(t.update(_overtaking(0), 0).seen, key=lambda track: track.box.y0, reverse=True)
+    for frame in range(1, 40):
+        t.update(_overtaking(frame), frame)
+    assert t.started > 2 or fast.box != _car(100 + 6 * 39, 200) or slow.box != _car(160 + 39, 185)

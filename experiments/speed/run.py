@@ -50,7 +50,7 @@ SETTINGS = {"traffic_240p": ["experiment=traffic", "roi.scale=1"], "traffic_720p
 SPLITS = {
     "dev": [("traffic_720p", 0), ("traffic_240p", 0), ("traffic_1080p", 0)],
     "heldout": [("traffic_720p", 100), ("traffic_720p", 101), ("traffic_720p", 102), ("traffic_720p", 103),
-                ("traffic_720p", 104), ("traffic_240p", 100),
+                ("traffic_720p", 104), ("traffic_720p", 105), ("traffic_720p", 106), ("traffic_240p", 100),
                 ("traffic_240p", 101), ("traffic_1080p", 100)],
 }
 BARS = {"traffic_720p": {"median_error_kmh": 0.5, "mean_error_kmh": 1.0, "p95_error_kmh": 2.0, "recall": 0.95,

@@ -1,6 +1,14 @@
 """One track per vehicle, with a lifecycle (as ByteTrack's): a greedy IoU tracker that follows the background
 model's boxes frame to frame, says when a vehicle has stopped, and removes a track once it has been lost for
-`max_lost_frames` frames, with everything it held (its boxes, road path and crops for the vote)."""
+`max_lost_frames` frames, with everything it held (its boxes, road path and crops for the vote).
+
+Two vehicles whose blobs merge (one overtaking the other, seen side by side) make one box for a while. Where
+`max_shared_frames` is on, a track that finds no box of its own where another track's box covers where it should be
+(its box moved on by its motion, `motion_frames`) shares that box with it: neither takes it as its own (it is neither
+vehicle's box), both stay alive while the blob lasts, and when it parts each takes the part nearest where it should
+be. Without
+it the larger track takes the merged box and, when the blob parts, whichever vehicle overlaps it more: a vehicle's
+track can go on as another's."""
 
 from __future__ import annotations
 
@@ -36,6 +44,9 @@ class VehicleTrack:
     ground_frames: list[int] = field(default_factory=list)
     stopped_at_frame: int | None = None
     state: TrackState = TrackState.NEW
+    shared_box: Box | None = None
+    """The box it shares with other tracks in the last frame (their blobs merged), None when it has its own."""
+    shared_frames: int = 0
 
     @property
     def box(self) -> Box:
@@ -45,6 +56,26 @@ class VehicleTrack:
     @property
     def last_frame(self) -> int:
         return self.frames[-1]
+
+    def predicted_box(self, frame_index: int, motion_frames: int) -> Box:
+        """Where the box should be at `frame_index`: the last box moved on by its edges' constant-velocity motion
+        fitted over the last `motion_frames` frames seen (the last box as it was with fewer than two of them, or
+        `motion_frames` under 2), so that a vehicle hidden for a few frames is found again where it drove on to."""
+        seen = min(motion_frames, len(self.boxes))
+        if seen < 2 or frame_index <= self.last_frame:
+            return self.box
+        frames = np.array(self.frames[-seen:], dtype=float)
+        edges = np.array([[b.x0, b.y0, b.x1, b.y1] for b in self.boxes[-seen:]], dtype=float)
+        spread = frames - frames.mean()
+        velocity = spread @ (edges - edges.mean(axis=0)) / float(spread @ spread)
+        moved = edges[-1] + velocity * (frame_index - self.last_frame)
+        x0, y0, x1, y1 = (int(round(v)) for v in moved)
+        return Box(x0, y0, max(x1, x0 + 1), max(y1, y0 + 1))
+
+    def unobserve(self) -> Box:
+        """Take back the last frame's box (it was shared with another vehicle); returns it."""
+        self.frames.pop()
+        return self.boxes.pop()
 
     def observe(self, box: Box, frame_index: int) -> None:
         """The vehicle's box at this frame."""
@@ -65,8 +96,14 @@ class TrackerParams:
     stop_frames: int
     stop_tolerance_fraction: float
     max_lost_frames: int
+    motion_frames: int
+    max_shared_frames: int
+    shared_min_cover: float
 
     def __post_init__(self) -> None:
+        check_range("motion_frames", self.motion_frames, 0)
+        check_range("max_shared_frames", self.max_shared_frames, 0)
+        check_range("shared_min_cover", self.shared_min_cover, 0.0, 1.0, low_open=True)
         check_range("min_iou", self.min_iou, 0.0, 1.0)
         check_range("stop_frames", self.stop_frames, 2)
         check_range("stop_tolerance_fraction", self.stop_tolerance_fraction, 0.0)
@@ -106,16 +143,22 @@ class StoppedVehicleTracker:
         return self._next_id - 1
 
     def update(self, boxes: list[Box], frame_index: int) -> TrackerUpdate:
-        """Associate this frame's boxes with the tracks, start a track for each box left over, and remove the
-        tracks missed in the last `max_lost_frames` frames."""
-        unmatched = list(boxes)
+        """Associate this frame's boxes with the tracks (each track's box where its motion takes it), share a box
+        among the tracks it covers, start a track for each box left over, and remove the tracks missed in the last
+        `max_lost_frames` frames (or shared for more than `max_shared_frames`)."""
+        expected = {t.track_id: t.predicted_box(frame_index, self.params.motion_frames) for t in self.tracks}
+        unmatched, sharing = self.still_shared(list(boxes))
         for track in sorted(self.tracks, key=lambda t: -t.box.area_px):
             if not unmatched:
                 break
-            overlaps = [track.box.iou(b) for b in unmatched]
+            if track.track_id in sharing:
+                continue
+            overlaps = [expected[track.track_id].iou(b) for b in unmatched]
             best = int(np.argmax(overlaps))
             if overlaps[best] >= self.params.min_iou:
                 track.observe(unmatched.pop(best), frame_index)
+        self.merged(expected, sharing, frame_index)
+        self.parted(unmatched, expected, sharing, frame_index)
         for box in unmatched:
             track = VehicleTrack(self._next_id, TrackVotes(self.vote_frames, self.vote_policy))
             track.observe(box, frame_index)
@@ -123,13 +166,16 @@ class StoppedVehicleTracker:
             self._next_id += 1
         seen, stopped, removed, kept = [], [], [], []
         for track in self.tracks:
+            track.shared_box = sharing.get(track.track_id)
+            track.shared_frames = track.shared_frames + 1 if track.shared_box is not None else 0
             if track.last_frame == frame_index:
                 track.state = TrackState.NEW if len(track.frames) == 1 else TrackState.TRACKED
                 seen.append(track)
                 if track.stopped_at_frame is None and self.is_still(track):
                     track.stopped_at_frame = frame_index
                     stopped.append(track)
-            elif frame_index - track.last_frame >= self.params.max_lost_frames:
+            elif (track.shared_frames > self.params.max_shared_frames
+                  or (track.shared_box is None and frame_index - track.last_frame >= self.params.max_lost_frames)):
                 track.state = TrackState.REMOVED
                 removed.append(track)
                 continue
@@ -138,6 +184,64 @@ class StoppedVehicleTracker:
             kept.append(track)
         self.tracks = kept
         return TrackerUpdate(seen, stopped, removed)
+
+    def still_shared(self, boxes: list[Box]) -> tuple[list[Box], dict[int, Box]]:
+        """The boxes not shared, and each sharing track's shared box: the tracks that shared a box in the last frame
+        go on sharing the one box that overlaps it (two or more: the blob has parted)."""
+        if self.params.max_shared_frames == 0:
+            return boxes, {}
+        groups: dict[tuple[int, int, int, int], list[VehicleTrack]] = {}
+        for track in self.tracks:
+            if track.shared_box is not None:
+                b = track.shared_box
+                groups.setdefault((b.x0, b.y0, b.x1, b.y1), []).append(track)
+        sharing: dict[int, Box] = {}
+        shared: set[int] = set()
+        for previous, members in groups.items():
+            within = [i for i, box in enumerate(boxes) if not box.intersection(Box(*previous)).is_empty]
+            if len(within) == 1:
+                shared.add(within[0])
+                sharing |= {t.track_id: boxes[within[0]] for t in members}
+        return [box for i, box in enumerate(boxes) if i not in shared], sharing
+
+    def merged(self, expected: dict[int, Box], sharing: dict[int, Box], frame_index: int) -> None:
+        """A live track that found no box of its own, where a box another track took this frame covers at least
+        `shared_min_cover` of where it should be, shares that box with it: their blobs have merged, and the box is
+        neither's (the other track's observation of it is taken back). Adds to `sharing`."""
+        if self.params.max_shared_frames == 0:
+            return
+        taken = [t for t in self.tracks if t.last_frame == frame_index]
+        for track in self.tracks:
+            if (track.last_frame == frame_index or track.track_id in sharing
+                    or frame_index - track.last_frame >= self.params.max_lost_frames):
+                continue
+            where = expected[track.track_id]
+            cover = [t for t in taken if t.last_frame == frame_index
+                     and t.box.intersection(where).area_px >= self.params.shared_min_cover * where.area_px]
+            if cover:
+                box = cover[0].unobserve()
+                sharing |= {track.track_id: box, cover[0].track_id: box}
+        shared = {(b.x0, b.y0, b.x1, b.y1) for b in sharing.values()}
+        for track in self.tracks:  # a third track that took a shared box this frame shares it too
+            if track.last_frame == frame_index and (track.box.x0, track.box.y0, track.box.x1, track.box.y1) in shared:
+                sharing[track.track_id] = track.unobserve()
+
+    def parted(self, unmatched: list[Box], expected: dict[int, Box], sharing: dict[int, Box],
+               frame_index: int) -> None:
+        """The tracks that shared a box in the last frame and have none now take the boxes left within it, the
+        nearest to where each should be first (taken out of `unmatched`)."""
+        waiting = [t for t in self.tracks if t.shared_box is not None and t.track_id not in sharing
+                   and t.last_frame != frame_index]
+        pairs = sorted((float(np.linalg.norm(b.centre_px - expected[t.track_id].centre_px)), i, t.track_id)
+                       for t in waiting for i, b in enumerate(unmatched) if not b.intersection(t.shared_box).is_empty)
+        taken_boxes, taken_tracks = set(), set()
+        tracks = {t.track_id: t for t in waiting}
+        for _, i, track_id in pairs:
+            if i not in taken_boxes and track_id not in taken_tracks:
+                tracks[track_id].observe(unmatched[i], frame_index)
+                taken_boxes.add(i)
+                taken_tracks.add(track_id)
+        unmatched[:] = [b for i, b in enumerate(unmatched) if i not in taken_boxes]
 
     def is_still(self, track: VehicleTrack) -> bool:
         """Whether the track's box centre stayed put over its last `stop_frames` frames, seen one after another."""
