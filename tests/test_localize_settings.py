@@ -34,14 +34,13 @@ def test_the_highway_experiment_sets_its_settings_and_no_other() -> None:
     assert default.pipeline.every_frame is False and default.roi.min_area_fraction == 0.001
 
 
-def test_the_traffic_experiment_votes_on_the_largest_views_shares_merged_blobs_and_changes_nothing_else() -> None:
+def test_the_traffic_experiment_votes_on_the_largest_views_and_changes_nothing_else() -> None:
     default, traffic = LocalizeSettings.compose(), LocalizeSettings.compose(["experiment=traffic"])
     assert default.pipeline.vote_policy == "spread"
     assert traffic.pipeline == PipelineParams.from_config(vote_policy="largest")
-    assert (default.tracker.motion_frames, default.tracker.max_shared_frames) == (0, 0)
-    assert traffic.tracker == TrackerParams.from_config(motion_frames=5, max_shared_frames=50)
-    assert (traffic.roi, traffic.detectors, traffic.fit, traffic.speed) == (
-        default.roi, default.detectors, default.fit, default.speed)
+    assert (default.tracker.motion_frames, default.tracker.max_shared_frames) == (0, 0)  # merged blobs: not shared
+    assert (traffic.roi, traffic.tracker, traffic.detectors, traffic.fit, traffic.speed) == (
+        default.roi, default.tracker, default.detectors, default.fit, default.speed)
 
 
 @pytest.mark.parametrize(("overrides", "fragment"), [
