@@ -110,7 +110,7 @@ class ModelSource(StrEnum):
 @dataclass(frozen=True)
 class VehicleSpeed:
     """One vehicle of a video: its track, frames, model, path, speed (or why none) and lane; the vote's likeliest
-    models each measured (`candidates`, the vote's first first) and where the model came from (`model_source`)."""
+    models each measured (`candidates`, the vote's first model first) and where the model came from (`model_source`)."""
 
     track_id: int
     first_frame: int
