@@ -55,10 +55,10 @@ def check_range(
 
 
 def check_interval(name: str, interval: tuple[float, float], low: float | None = None,
-                   high: float | None = None) -> None:
+                   high: float | None = None, low_open: bool = False) -> None:
     """SettingError unless `interval` is an ordered pair inside [low, high]: `low <= interval[0] <= interval[1] <=
-    high` (None: unbounded)."""
-    check_range(f"{name}[0]", interval[0], low, high)
+    high` (`low < interval[0]` with `low_open`; None: unbounded)."""
+    check_range(f"{name}[0]", interval[0], low, high, low_open=low_open)
     check_range(f"{name}[1]", interval[1], interval[0], high)
 
 

@@ -71,16 +71,13 @@ class PlateParams:
         for name in ("min_fitted_side_px", "max_side_residual_px", "min_width_px"):
             check_range(name, getattr(self, name), 0.0)
         check_range("max_width_fraction", self.max_width_fraction, 0.0, 1.0, low_open=True)
-        check_range("aspect_range[0]", self.aspect_range[0], 0.0, low_open=True)
-        check_range("aspect_range[1]", self.aspect_range[1], self.aspect_range[0])
+        check_interval("aspect_range", self.aspect_range, 0.0, low_open=True)
         check_interval("character_fraction_range", self.character_fraction_range, 0.0, 1.0)
         check_range("min_crossings", self.min_crossings, 0)
         check_range("expected_crossings", self.expected_crossings, max(1, self.min_crossings))
         check_range("min_score", self.min_score, 0.0, 1.0)
         check_range("heading_agreement_deg", self.heading_agreement_deg, 0.0, 90.0)
-        check_range("width_range_mm[0]", self.width_range_mm[0], 0.0, low_open=True)
-        check_range("width_range_mm[1]", self.width_range_mm[1], self.width_range_mm[0])
-        check_range("max_height_mm", self.max_height_mm, 0.0, low_open=True)
+        check_interval("width_range_mm", self.width_range_mm, 0.0, low_open=True)
         check_range("max_height_mm", self.max_height_mm, 0.0, low_open=True)
 
     @classmethod

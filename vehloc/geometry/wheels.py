@@ -58,11 +58,9 @@ class WheelParams:
         for i, contrast in enumerate(self.dark_contrasts):
             check_range(f"dark_contrasts[{i}]", contrast, 0.0, 255.0, low_open=True)
         check_range("min_dark_tyre", self.min_dark_tyre, 0.0, 1.0)
-        check_range("tyre_diameter_range_mm[0]", self.tyre_diameter_range_mm[0], 0.0, low_open=True)
-        check_range("tyre_diameter_range_mm[1]", self.tyre_diameter_range_mm[1], self.tyre_diameter_range_mm[0])
+        check_interval("tyre_diameter_range_mm", self.tyre_diameter_range_mm, 0.0, low_open=True)
         check_range("tyre_width_mm", self.tyre_width_mm, 0.0)
-        check_range("wheelbase_range_mm[0]", self.wheelbase_range_mm[0], 0.0, low_open=True)
-        check_range("wheelbase_range_mm[1]", self.wheelbase_range_mm[1], self.wheelbase_range_mm[0])
+        check_interval("wheelbase_range_mm", self.wheelbase_range_mm, 0.0, low_open=True)
         check_range("pair_tolerance_deg", self.pair_tolerance_deg, 0.0, 90.0)
         check_range("min_score", self.min_score, 0.0, 1.0)
 

@@ -190,15 +190,14 @@ class StoppedVehicleTracker:
         go on sharing the one box that overlaps it (two or more: the blob has parted)."""
         if self.params.max_shared_frames == 0:
             return boxes, {}
-        groups: dict[tuple[int, int, int, int], list[VehicleTrack]] = {}
+        groups: dict[Box, list[VehicleTrack]] = {}
         for track in self.tracks:
             if track.shared_box is not None:
-                b = track.shared_box
-                groups.setdefault((b.x0, b.y0, b.x1, b.y1), []).append(track)
+                groups.setdefault(track.shared_box, []).append(track)
         sharing: dict[int, Box] = {}
         shared: set[int] = set()
         for previous, members in groups.items():
-            within = [i for i, box in enumerate(boxes) if not box.intersection(Box(*previous)).is_empty]
+            within = [i for i, box in enumerate(boxes) if not box.intersection(previous).is_empty]
             if len(within) == 1:
                 shared.add(within[0])
                 sharing |= {t.track_id: boxes[within[0]] for t in members}
@@ -221,9 +220,9 @@ class StoppedVehicleTracker:
             if cover:
                 box = cover[0].unobserve()
                 sharing |= {track.track_id: box, cover[0].track_id: box}
-        shared = {(b.x0, b.y0, b.x1, b.y1) for b in sharing.values()}
+        shared = set(sharing.values())
         for track in self.tracks:  # a third track that took a shared box this frame shares it too
-            if track.last_frame == frame_index and (track.box.x0, track.box.y0, track.box.x1, track.box.y1) in shared:
+            if track.last_frame == frame_index and track.box in shared:
                 sharing[track.track_id] = track.unobserve()
 
     def parted(self, unmatched: list[Box], expected: dict[int, Box], sharing: dict[int, Box],
