@@ -436,6 +436,10 @@ SCRIPT_CASES = {
                                       ["--video", "{tmp}/v.avi", "--calibration", "{tmp}/c.json",
                                        "--model", "{tmp}/none.onnx", "--out", "{tmp}/out"],
                                       "none.onnx: model file does not exist"),
+    "highway_spot_check_missing_calibration": ("experiments/real_video/highway_spot_check.py",
+                                               ["--calibration", "{tmp}/none.json", "--records", "{tmp}/r.csv",
+                                                "--out", "{tmp}/out"],
+                                               "none.json: calibration file does not exist"),
 }
 
 

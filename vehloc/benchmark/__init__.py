@@ -1,6 +1,7 @@
 """The randomized localization benchmark: seeded cases drawn over the catalog's models, colours, poses,
 cameras and light (`cases`), what of each car a camera can see (`visibility`), one case rendered and
-localized against its truth (`runner`), and the per-group rates, tables and figures (`report`)."""
+localized against its truth (`runner`), the per-group rates, tables and figures (`report`), and a real video's
+records against fronts read by hand (`spot_truth`)."""
 
 from vehloc.api import lazy_api
 
@@ -9,6 +10,7 @@ __all__, __getattr__ = lazy_api(__name__, {
     "oracle": ["TrueModelClassifier"],
     "report": ["write_report"],
     "runner": ["CaseOutcome", "run_case"],
+    "spot_truth": ["Spot", "SpotCheck", "SpotTruth", "check_spot", "read_spot_truth", "spot_table"],
     "suite": ["BenchmarkSettings", "run_benchmark"],
     "visibility": ["Visibility", "VisibilityParams"],
 })

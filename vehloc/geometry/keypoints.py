@@ -98,6 +98,15 @@ def lowered_line_mm(line_mm: np.ndarray, height_mm: float, camera_centre_mm: np.
     return np.array([a, b, k * (at_foot + c) - at_foot])
 
 
+def lowered_points_mm(points_mm: np.ndarray, height_mm: float, camera_centre_mm: np.ndarray) -> np.ndarray:
+    """The road points (N, 2) below points `height_mm` above the road whose images map to the road as `points_mm`:
+    each scaled towards the camera's foot by (camera height - height) / camera height (the point form of
+    `lowered_line_mm`)."""
+    foot_mm = np.asarray(camera_centre_mm, dtype=float)[:2]
+    k = (camera_centre_mm[2] - height_mm) / camera_centre_mm[2]
+    return foot_mm + k * (np.asarray(points_mm, dtype=float).reshape(-1, 2) - foot_mm)
+
+
 def plate_width_heading_deg(plate: Plate, road_to_image: ProjectiveTransform) -> float:
     """The road direction (deg, [0, 180)) of the plate's upper and lower edges, their mean: horizontal 3D lines
     across the vehicle's end, each mapped by the inverse homography to a road line of its own direction."""

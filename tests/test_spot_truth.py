@@ -1,0 +1,122 @@
+"""Hand-read spot truth: the ground point below a bumper's edge, the check of a record against it, and the highway
+clip's hand file against its calibrated image."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from vehloc.benchmark.spot_truth import (Spot, SpotTruth, check_spot, front_mm, ground_point_mm, read_spot_truth,
+                                         spot_table)
+from vehloc.errors import DataError
+from vehloc.geometry.calibration import CalibrationParams
+from vehloc.geometry.camera import PinholeCamera
+from vehloc.geometry.keypoints import lowered_points_mm
+from vehloc.geometry.pipeline.site_calibration import calibrate_site
+from vehloc.geometry.pipeline.video import median_background
+from vehloc.geometry.site import read_site
+
+PROJECT = Path(__file__).resolve().parents[1]
+REAL_VIDEO = PROJECT / "experiments" / "real_video"
+# A camera over a road, as the highway clip's: 8.6 m high, 7 deg down, looking along +Y.
+CAMERA = PinholeCamera.from_pose(np.array([2400.0, -46000.0, 8600.0]), 0.0, 7.0, 0.0, 1600.0, 320, 240)
+
+
+def truth_of(*spots: Spot) -> SpotTruth:
+    return SpotTruth(spots, {"car": 250.0, "suv": 400.0}, 80.0, 1.0)
+
+
+def test_the_road_point_below_a_raised_point_is_exact() -> None:
+    """A point 300 mm above the road at (1.5, 20) m, imaged and mapped to the road by the homography, lowered
+    to that height, is (1.5, 20) m again; tolerance 1e-6 mm (floating point)."""
+    point_mm = np.array([1500.0, 20000.0, 300.0])
+    pixel = CAMERA.project(point_mm[None])[0]
+    road_mm = CAMERA.image_to_road(pixel[None])
+    assert np.linalg.norm(road_mm[0] - point_mm[:2]) > 500.0  # the homography alone puts it beyond
+    np.testing.assert_allclose(lowered_points_mm(road_mm, 300.0, CAMERA.centre_mm)[0], point_mm[:2], atol=1e-6)
+    np.testing.assert_allclose(ground_point_mm(tuple(pixel), 300.0, CAMERA), point_mm[:2], atol=1e-6)
+
+
+def test_the_front_is_the_end_nearest_the_camera() -> None:
+    """Of a 4.8 x 1.8 m footprint along the road, the middle of the end towards the camera's foot; exact."""
+    corners = np.array([[-900.0, 10000.0], [900.0, 10000.0], [900.0, 14800.0], [-900.0, 14800.0]])
+    np.testing.assert_allclose(front_mm(corners, CAMERA.centre_mm[:2]), [0.0, 10000.0], atol=1e-9)
+    np.testing.assert_allclose(front_mm(corners[::-1], np.array([0.0, 90000.0])), [0.0, 14800.0], atol=1e-9)
+
+
+def record_row(frame: int, box: tuple[int, int, int, int], status: str, corners_mm: np.ndarray | None) -> dict:
+    row = {"track_id": 7, "frame": frame, "status": status, "reason_code": "poor_fit", "method": "fit",
+           "box_x0_px": box[0], "box_y0_px": box[1], "box_x1_px": box[2], "box_y1_px": box[3]}
+    for i in range(4):
+        row[f"corner{i}_x_mm"] = np.nan if corners_mm is None else corners_mm[i, 0]
+        row[f"corner{i}_y_mm"] = np.nan if corners_mm is None else corners_mm[i, 1]
+    return row
+
+
+@pytest.mark.parametrize("offset_mm, within", [(1000.0, True), (-2000.0, False)])
+def test_a_record_is_checked_against_the_spot(offset_mm: float, within: bool) -> None:
+    """A car's bumper edge 250 mm high at (0.5, 20) m read at its exact pixel; a record whose footprint's front lies
+    `offset_mm` along the road from it: the error is that offset to 1e-6 mm, within 1.5 m or not."""
+    edge_mm = np.array([500.0, 20000.0, 250.0])
+    pixel = CAMERA.project(edge_mm[None])[0]
+    spot = Spot(40, "right", "car", "white", (float(pixel[0]), float(pixel[1])))
+    front_y = 20000.0 + offset_mm
+    corners = np.array([[-400.0, front_y], [1400.0, front_y], [1400.0, front_y + 4800.0], [-400.0, front_y + 4800.0]])
+    box = (int(pixel[0]) - 20, int(pixel[1]) - 30, int(pixel[0]) + 20, int(pixel[1]) + 3)
+    records = pd.DataFrame([record_row(40, box, "localized", corners), record_row(41, box, "localized", corners)])
+    check = check_spot(spot, truth_of(spot), records, CAMERA, 1500.0)
+    np.testing.assert_allclose(check.truth_mm, edge_mm[:2], atol=1e-6)
+    assert check.track_id == 7 and check.status == "localized"
+    assert check.error_along_mm == pytest.approx(offset_mm, abs=1e-6)
+    assert check.error_across_mm == pytest.approx(0.0, abs=1e-6)
+    assert check.within is within
+    assert check.truth_sigma_along_mm > 0
+    assert spot_table([check]).within.tolist() == [within]
+
+
+def test_a_spot_without_a_localized_record_fails_with_the_reason() -> None:
+    """A record whose box holds the spot but is not localized gives its reason; a spot no box holds, `no record`."""
+    spot = Spot(40, "left", "car", "red", (100.0, 120.0))
+    records = pd.DataFrame([record_row(40, (80, 90, 130, 125), "not localized", None)])
+    check = check_spot(spot, truth_of(spot), records, CAMERA, 1500.0)
+    assert (check.status, check.reason, check.within) == ("not localized", "poor_fit", False)
+    away = Spot(40, "left", "car", "red", (200.0, 120.0))
+    assert check_spot(away, truth_of(away), records, CAMERA, 1500.0).status == "no record"
+
+
+def test_a_bad_spot_file_is_one_line_naming_it(tmp_path: Path) -> None:
+    path = tmp_path / "spots.yaml"
+    path.write_text("clearance_mm: {car: 220}\nclearance_sigma_mm: 80\nreading_sigma_px: 1\n"
+                    "spots:\n  - {frame: 1, lane: middle, body: car, colour: red, front_x_px: 1, front_y_px: 2}\n")
+    with pytest.raises(DataError, match=r"spots.yaml: spot 0 has lane 'middle'"):
+        read_spot_truth(path)
+    path.write_text("clearance_mm: {car: 220}\nclearance_sigma_mm: 80\nreading_sigma_px: 1\n"
+                    "spots:\n  - {frame: 1, lane: left, body: van, colour: red, front_x_px: 1, front_y_px: 2}\n")
+    with pytest.raises(DataError, match=r"spots.yaml: spot 0 has body 'van'"):
+        read_spot_truth(path)
+
+
+def test_the_highway_hand_spots_lie_in_their_lanes(shared_data: Path) -> None:
+    """The hand file covers at least 12 frames, both lanes, near (front row >= 150 px) and far (<= 100 px); and with
+    the clip's site calibration (as `highway.py` makes it) every spot's ground point lies on the road in the lane it
+    was read in: left of the dashed line (X < 0) or right of it, and between the left curb's face (X about -3.1 m,
+    measured) and the yellow line's outer edge (3.71 m); tolerance 0.1 m beyond the curb."""
+    truth = read_spot_truth(REAL_VIDEO / "highway_spot_truth.yaml")
+    rows = np.array([s.front_px[1] for s in truth.spots])
+    assert len({s.frame for s in truth.spots}) >= 12
+    for lane in ("left", "right"):
+        assert (rows[[s.lane == lane for s in truth.spots]] >= 150).any()
+        assert (rows[[s.lane == lane for s in truth.spots]] <= 100).any()
+    video = shared_data / "traffic" / "highway_320x240.avi"
+    background = median_background(video, 60)
+    params = CalibrationParams.from_config(pinhole_model=True, refine_rounds=5,
+                                           edge_search={"search_px": 3.0, "min_contrast": 25.0})
+    site = calibrate_site(read_site(REAL_VIDEO / "highway_site.yaml"), background, "guess", params=params)
+    calibration = site.camera_calibration("highway_site.yaml")
+    for spot in truth.spots:
+        x_mm = ground_point_mm(spot.front_px, truth.clearance_mm[spot.body], calibration.camera)[0]
+        assert (x_mm < 0) == (spot.lane == "left"), (spot, x_mm)
+        assert -3300.0 < x_mm < 3708.0, (spot, x_mm)
