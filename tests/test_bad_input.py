@@ -436,8 +436,8 @@ SCRIPT_CASES = {
                                       ["--video", "{tmp}/v.avi", "--calibration", "{tmp}/c.json",
                                        "--model", "{tmp}/none.onnx", "--out", "{tmp}/out"],
                                       "none.onnx: model file does not exist"),
-    "highway_spot_check_missing_calibration": ("experiments/real_video/highway_spot_check.py",
-                                               ["--calibration", "{tmp}/none.json", "--records", "{tmp}/r.csv",
+    "highway_hand_check_missing_calibration": ("experiments/real_video/highway_hand_check.py",
+                                               ["--calibration", "{tmp}/none.json", "--localized", "{tmp}/run",
                                                 "--out", "{tmp}/out"],
                                                "none.json: calibration file does not exist"),
 }

@@ -85,3 +85,20 @@ def test_with_too_few_sure_vehicles_every_vote_stands() -> None:
     assert choose_models(sure + [unsure], params)[-1].model_id == MERCEDES_R
     with pytest.raises(ConfigError, match="candidates"):
         SpeedParams.from_config(candidates=0)
+
+
+def test_a_vehicle_whose_boxes_no_model_fits_says_so() -> None:
+    """Boxes twice as tall as the Spirior's (a truck, or two cars in one blob): no frame is within
+    `speed.max_box_mismatch` of the model's size, and the vehicle is not measured with that reason, not as a short
+    path."""
+    frames = np.arange(40)
+    centres = np.column_stack([np.zeros(40), 60000.0 - frames / FPS * 25.0 * 1000.0])
+    boxes = {}
+    for f, c in zip(frames, centres):
+        box = _box(SPIRIOR, c)
+        boxes[int(f)] = Box(box.x0, box.y0 - box.height_px, box.x1, box.y1)
+    bottoms = CAMERA.image_to_road(np.array([[b.centre_px[0], b.y1 - 1.0] for b in boxes.values()]))
+    candidate = SPEEDS.candidate(SPIRIOR, 1.0, frames, bottoms, boxes, -90.0,
+                                 NotPlaced(ReasonCode.PATH_TOO_SHORT, "unused"))
+    assert isinstance(candidate.speed, NotPlaced) and candidate.speed.code == ReasonCode.BOX_NOT_MODEL_SIZE
+    assert "none of its 40 boxes" in candidate.speed.message

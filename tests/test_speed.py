@@ -113,12 +113,14 @@ def test_a_camera_looking_square_down_the_road_cannot_be_written_in_the_benchmar
         brno_calibration(square, square.road_to_image(), np.array([[0.0, 10000.0], [0.0, 20000.0]]))
 
 
-def _vehicle(track_id: int, lateral_mm: float):
+def _vehicle(track_id: int, lateral_mm: float, measured: bool = True):
     from vehloc.geometry.pipeline.track_speed import VehiclePath, VehicleSpeed
+    from vehloc.geometry.speed import fit_speed
 
     points = np.column_stack([np.full(5, lateral_mm), np.linspace(40000.0, 10000.0, 5)])
-    return VehicleSpeed(track_id, 0, 4, FPS, VehiclePath(np.arange(5), points, points, np.zeros((5, 4), int)),
-                        NotPlaced(ReasonCode.PATH_TOO_SHORT, "unused"))
+    speed = fit_speed(points, np.arange(5) / FPS, 0.0, 3, 1000.0) if measured else NotPlaced(
+        ReasonCode.PATH_TOO_SHORT, "unused")
+    return VehicleSpeed(track_id, 0, 4, FPS, VehiclePath(np.arange(5), points, points, np.zeros((5, 4), int)), speed)
 
 
 def test_lanes_come_from_the_sites_lines_or_from_the_paths_clusters() -> None:
@@ -129,3 +131,18 @@ def test_lanes_come_from_the_sites_lines_or_from_the_paths_clusters() -> None:
     assert [v.lane for v in assign_lanes(vehicles, lines)] == [0, 1, 0, 2, None, 1]  # 9 m across: off the road
     clustered = SpeedParams.from_config(lane_gap_mm=1500.0)
     assert [v.lane for v in assign_lanes(vehicles, clustered)] == [0, 1, 0, 2, 3, 1]
+
+
+def test_fragments_without_a_speed_do_not_join_two_lanes() -> None:
+    """Two lanes of measured cars 3.4 m apart, and fragments without a speed spread between them every 0.5 m (which
+    would chain the lanes into one): the lanes stay two, a fragment within 1.5 m of a measured car takes its lane, one
+    farther from every measured car has none."""
+    from vehloc.geometry.pipeline.track_speed import SpeedParams, assign_lanes
+
+    measured = [_vehicle(i, x) for i, x in enumerate([-1900.0, -1500.0, -1200.0, 1400.0, 1700.0])]
+    fragments = [_vehicle(10 + i, x, measured=False) for i, x in enumerate(np.arange(-1000.0, 1300.0, 500.0))]
+    lanes = [v.lane for v in assign_lanes(measured + fragments, SpeedParams.from_config(lane_gap_mm=1500.0))]
+    assert lanes[:5] == [0, 0, 0, 1, 1]
+    assert lanes[5:] == [0, 0, 0, 1, 1]  # -1000, -500, 0 (1.2 m from -1200), 500, 1000 (0.9 m from 1400)
+    far = assign_lanes(measured + [_vehicle(20, 6000.0, measured=False)], SpeedParams.from_config(lane_gap_mm=1500.0))
+    assert far[-1].lane is None

@@ -23,6 +23,7 @@ class ReasonCode(StrEnum):
     PATH_WAY_UNCLEAR = "path_way_unclear"
     POOR_FIT = "poor_fit"
     NOT_TRACKED_TO_STOP = "not_tracked_to_stop"
+    BOX_NOT_MODEL_SIZE = "box_not_model_size"
 
 
 @dataclass(frozen=True)

@@ -41,15 +41,24 @@ def benchmark_calibration(calibration: CameraCalibration, vehicles: list[Vehicle
 
 
 def speed_plot(vehicles: list[VehicleSpeed], title: str) -> bytes:
-    """A histogram of the measured speeds, with the vehicles not measured counted in the legend."""
+    """A histogram of the measured speeds, stacked by lane (numbered from the road's left), with the vehicles not
+    measured counted in the title."""
     import io
 
     from matplotlib.figure import Figure
 
-    speeds = [v.speed.speed_kmh for v in vehicles if v.status == SpeedStatus.MEASURED]
+    measured = [v for v in vehicles if v.status == SpeedStatus.MEASURED]
+    speeds = [v.speed.speed_kmh for v in measured]
+    lanes = sorted({v.lane for v in measured if v.lane is not None}) + ([None] if any(v.lane is None for v in measured) else [])
+    groups = [[v.speed.speed_kmh for v in measured if v.lane == lane] for lane in lanes]
+    labels = [f"lane {lane}: median {np.median(g):.1f} km/h ({len(g)})" if lane is not None else f"no lane ({len(g)})"
+              for lane, g in zip(lanes, groups)]
     figure = Figure(figsize=(6.4, 3.6), dpi=120)
     axis = figure.subplots()
-    axis.hist(speeds, bins=np.arange(0.0, max(speeds + [60.0]) + 10.0, 5.0), color="#3870a8", edgecolor="white")
+    axis.hist(groups or [[]], bins=np.arange(0.0, max(speeds + [60.0]) + 10.0, 5.0), stacked=True, edgecolor="white",
+              label=labels or None)
+    if labels:
+        axis.legend(fontsize=8)
     axis.set_xlabel("speed (km/h)")
     axis.set_ylabel("vehicles")
     axis.set_title(f"{title}: {len(speeds)} measured, {len(vehicles) - len(speeds)} not")

@@ -224,6 +224,11 @@ class TrackSpeeds:
         points, excess = bottoms, float("nan")
         if self.params.reference != "box_bottom":
             kept, centres, excesses = self.centres(model_id, frames, bottoms, boxes, heading_deg)
+            if not kept.any() and np.isfinite(centres).all(axis=1).any():
+                return replace(candidate, speed=NotPlaced(ReasonCode.BOX_NOT_MODEL_SIZE, (
+                    f"none of its {len(frames)} boxes is within {self.params.max_box_mismatch:.0%} of the {spec.model}'s "
+                    "size there (speed.max_box_mismatch): a vehicle its classifier does not know (a truck, a bus) "
+                    "or vehicles merged into one blob")))
             frames, points = frames[kept], centres[kept].reshape(-1, 2)
             excess = float(np.median(excesses[kept])) if kept.any() else float("nan")
         path = VehiclePath(frames, points, self.calibration.road_to_image(points) if len(points) else np.zeros((0, 2)),
@@ -269,8 +274,10 @@ class TrackSpeeds:
 
 def assign_lanes(vehicles: Sequence[VehicleSpeed], params: SpeedParams) -> list[VehicleSpeed]:
     """Each vehicle's lane, numbered from the road's left (smallest X): between the site's lane lines where
-    `lane_lines_x_mm` gives them (None outside them), else the clusters of the paths' positions across the road
-    (a gap of `lane_gap_mm` between neighbours starts a lane)."""
+    `lane_lines_x_mm` gives them (None outside them), else the clusters of the measured vehicles' positions across the
+    road (a gap of `lane_gap_mm` between neighbours starts a lane); a vehicle without a speed (a fragment, a far car
+    seen a few frames, whose positions would fill the gaps) takes the lane of the nearest measured one within
+    `lane_gap_mm`, else none."""
     lateral = np.array([v.lateral_mm for v in vehicles], dtype=float)
     lanes: list[int | None] = [None] * len(vehicles)
     if params.lane_lines_x_mm is not None:
@@ -279,10 +286,14 @@ def assign_lanes(vehicles: Sequence[VehicleSpeed], params: SpeedParams) -> list[
             index = int(np.searchsorted(lines, x))
             lanes[i] = index - 1 if np.isfinite(x) and 0 < index < len(lines) else None
     else:
-        order = [i for i in np.argsort(lateral) if np.isfinite(lateral[i])]
+        measured = [i for i in np.argsort(lateral)
+                    if np.isfinite(lateral[i]) and vehicles[i].status == SpeedStatus.MEASURED]
         lane = 0
-        for previous, current in zip([None] + order[:-1], order):
+        for previous, current in zip([None] + measured[:-1], measured):
             if previous is not None and lateral[current] - lateral[previous] > params.lane_gap_mm:
                 lane += 1
             lanes[current] = lane
+        for i in (i for i in range(len(vehicles)) if lanes[i] is None and np.isfinite(lateral[i]) and measured):
+            nearest = min(measured, key=lambda j: abs(lateral[j] - lateral[i]))
+            lanes[i] = lanes[nearest] if abs(lateral[nearest] - lateral[i]) <= params.lane_gap_mm else None
     return [replace(v, lane=lane) for v, lane in zip(vehicles, lanes)]
