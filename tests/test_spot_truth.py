@@ -1,5 +1,5 @@
-"""Hand-read spot truth: the ground point below a bumper's edge, the check of a record against it, and the highway
-clip's hand file against its calibrated image."""
+"""Hand-read truth of a real video: the ground point below a bumper's edge and the check of a record against it, the
+hand count of vehicles through an image row and the measured tracks matched to it, and the highway clip's hand files."""
 
 from __future__ import annotations
 
@@ -9,6 +9,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from vehloc.benchmark.crossings import (Crossing, CrossingCount, match_crossings, read_crossings, row_road_y_mm,
+                                        track_crossing_frame)
 from vehloc.benchmark.spot_truth import (Spot, SpotTruth, check_spot, front_mm, ground_point_mm, read_spot_truth,
                                          spot_table)
 from vehloc.errors import DataError
@@ -120,3 +122,49 @@ def test_the_highway_hand_spots_lie_in_their_lanes(shared_data: Path) -> None:
         x_mm = ground_point_mm(spot.front_px, truth.clearance_mm[spot.body], calibration.camera)[0]
         assert (x_mm < 0) == (spot.lane == "left"), (spot, x_mm)
         assert -3300.0 < x_mm < 3708.0, (spot, x_mm)
+
+
+def test_a_tracks_crossing_of_a_row_is_where_its_front_reaches_the_rows_road_line() -> None:
+    """A car 4.8 m long driving towards the camera at 25 m/s (1 m a frame at 25 fps), its centre at Y = 60 m at frame
+    0: its front reaches the road line of image row 200 at the frame the exact geometry says; tolerance 1e-6 frame."""
+    x_mm = 1500.0
+    row_y_mm = row_road_y_mm(CAMERA.road_to_image(), 200.0, x_mm)
+    assert CAMERA.project(np.array([[x_mm, row_y_mm, 0.0]]))[0, 1] == pytest.approx(200.0, abs=1e-6)
+    frames = np.arange(10, 30)
+    y_mm = 60000.0 - 1000.0 * frames
+    expected = (60000.0 - 2400.0 - row_y_mm) / 1000.0
+    assert track_crossing_frame(frames, y_mm, 4800.0, row_y_mm) == pytest.approx(expected, abs=1e-6)
+
+
+def test_crossings_are_matched_one_to_one_in_their_lane() -> None:
+    """Two hand crossings of the left lane 30 frames apart and one of the right: the measured track of each lane
+    nearest in time takes each; a track of the wrong lane or too far in time takes none."""
+    count = CrossingCount(200.0, 0, (Crossing(40, "left"), Crossing(70, "left"), Crossing(50, "right")))
+    road_to_image = CAMERA.road_to_image()
+    tracks, points = [], []
+
+    def add(track_id: int, x_mm: float, crossing_frame: float) -> None:
+        row_y = row_road_y_mm(road_to_image, 200.0, x_mm)
+        frames = np.arange(int(crossing_frame) - 25, int(crossing_frame) - 5)
+        y_mm = row_y + 2400.0 + 1000.0 * (crossing_frame - frames)  # its front at the row at crossing_frame
+        tracks.append({"track_id": track_id, "status": "measured", "length_mm": 4800.0, "speed_kmh": 90.0})
+        points.extend({"track_id": track_id, "frame": f, "x_mm": x_mm, "y_mm": y, "used": True}
+                      for f, y in zip(frames, y_mm))
+
+    add(1, -1800.0, 42.0)
+    add(2, -1800.0, 66.0)
+    add(3, 1800.0, 70.0)   # the right lane, 20 frames after its crossing: beyond 12
+    matches = match_crossings(count, pd.DataFrame(tracks), pd.DataFrame(points), road_to_image,
+                              lambda x: "left" if x < 0 else "right", 12.0)
+    assert [m.track_id for m in matches] == [1, 2, None]
+    assert matches[0].track_frame == pytest.approx(42.0, abs=1e-6)
+
+
+def test_the_highway_crossings_file_is_whole() -> None:
+    """The hand count of the highway clip: its lanes left or right, its frames in the clip after its first frame and
+    in order."""
+    count = read_crossings(REAL_VIDEO / "highway_crossings.yaml")
+    frames = [c.frame for c in count.crossings]
+    assert len(frames) >= 20 and frames == sorted(frames)
+    assert count.first_frame <= frames[0] and frames[-1] < 1699
+    assert {c.lane for c in count.crossings} == {"left", "right"}
