@@ -105,3 +105,41 @@ def test_without_sharing_the_larger_track_takes_the_merged_box_and_goes_on_as_th
     for frame in range(1, 40):
         t.update(_overtaking(frame), frame)
     assert t.started > 2 or fast.box != _car(100 + 6 * 39, 200) or slow.box != _car(160 + 39, 185)
+
+
+def _stop_frame(boxes: list[Box]) -> int | None:
+    """The frame at which the tracker (10 frames, 2 % of the diagonal) first calls the one vehicle of `boxes` still."""
+    t = StoppedVehicleTracker(vote_frames=4, params=TrackerParams.from_config(stop_frames=10,
+                                                                              stop_tolerance_fraction=0.02))
+    for frame, box in enumerate(boxes):
+        stopped = t.update([box], frame).stopped
+        if stopped:
+            return frame
+    return None
+
+
+def test_a_standing_car_whose_shadow_flickers_under_it_is_still() -> None:
+    """A 50 x 32 px car standing (diagonal 59 px: 1.2 px of tolerance) whose box bottom jumps 6 px as its shadow comes
+    and goes (its centre 3 px): still once ten frames have been seen; with its top flickering instead, too."""
+    flicker_bottom = [Box(600, 300, 650, 332 + 6 * (f % 2)) for f in range(20)]
+    assert _stop_frame(flicker_bottom) == 9
+    flicker_top = [Box(600, 300 - 5 * (f % 3 == 0), 650, 332) for f in range(20)]
+    assert _stop_frame(flicker_top) == 9
+
+
+def test_a_moving_car_is_not_still() -> None:
+    """Cars moving 0.5 px a frame (5 px over the ten frames, beyond the 1.2 px tolerance): coming head-on (its top and
+    bottom moving down), across the view (its top and bottom steady), and across with one side pinned by a car hiding
+    it (its middle moving half as fast); never still."""
+    head_on = [Box(600, 300 + f // 2, 650, 332 + f // 2) for f in range(30)]
+    across = [Box(600 + f // 2, 300, 650 + f // 2, 332) for f in range(30)]
+    emerging = [Box(600 - f // 2, 300, 650, 332) for f in range(30)]
+    assert [_stop_frame(boxes) for boxes in (head_on, across, emerging)] == [None, None, None]
+
+
+def test_a_car_entering_at_the_bottom_edge_is_not_still() -> None:
+    """A car coming in over the frame's bottom edge (its box's bottom held at the edge, its sides steady, its top
+    speeding up in the image as it nears): the top's motion is smooth, not a flicker, so the middle is taken between
+    top and bottom, and it moves; never still."""
+    entering = [Box(520, int(560 - 0.08 * (f + 20) ** 2), 760, 720) for f in range(30)]
+    assert _stop_frame(entering) is None

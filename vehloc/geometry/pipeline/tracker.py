@@ -125,8 +125,9 @@ class TrackerUpdate:
 
 
 class StoppedVehicleTracker:
-    """Greedy IoU tracker; a track is stopped once its box centre stays, for N frames, within a fraction of the
-    box diagonal (blob edges flicker by a few pixels even when the car stands). A track missed in
+    """Greedy IoU tracker; a track is stopped once its box's middle stays for N frames within a fraction of the box
+    diagonal, taken at the height of its top or bottom where the other flickers (blob edges flicker by a few pixels
+    even when the car stands). A track missed in
     `max_lost_frames` frames in a row is removed; each new track keeps up to `vote_frames` crops for its vote, chosen
     by `vote_policy` (`TrackVotes`)."""
 
@@ -243,10 +244,28 @@ class StoppedVehicleTracker:
         unmatched[:] = [b for i, b in enumerate(unmatched) if i not in taken_boxes]
 
     def is_still(self, track: VehicleTrack) -> bool:
-        """Whether the track's box centre stayed put over its last `stop_frames` frames, seen one after another."""
+        """Whether the track's box stayed put over its last `stop_frames` frames, seen one after another: its middle
+        within `stop_tolerance_fraction` of its diagonal of where it is now. Where its top or its bottom flickers
+        (strays from a smooth motion by more than half that: a standing car's shadow comes and goes from the
+        foreground, a grey roof fades into the road) and the other does not, the middle is taken at the other's height."""
         n = self.params.stop_frames
         if len(track.boxes) < n or track.frames[-1] - track.frames[-n] != n - 1:
             return False
-        centres = np.array([b.centre_px for b in track.boxes[-n:]])
+        edges = np.array([[b.x0, b.y0, b.x1, b.y1] for b in track.boxes[-n:]], dtype=float)
+        shifts = edges - edges[-1]
         tolerance_px = self.params.stop_tolerance_fraction * np.hypot(track.box.width_px, track.box.height_px)
-        return float(np.max(np.linalg.norm(centres - centres[-1], axis=1))) <= tolerance_px
+        flicker = flicker_px(shifts[:, [1, 3]]) > tolerance_px / 2.0
+        y_shift = (shifts[:, 1] + shifts[:, 3]) / 2.0
+        if flicker[0] != flicker[1]:
+            y_shift = shifts[:, 3] if flicker[0] else shifts[:, 1]
+        moved = np.hypot((shifts[:, 0] + shifts[:, 2]) / 2.0, y_shift)
+        return float(np.max(moved)) <= tolerance_px
+
+
+def flicker_px(series: np.ndarray) -> np.ndarray:
+    """How far each column of `series` (frames x columns) strays from its least-squares parabola (px): a smooth
+    motion, steady or speeding up in the image as a vehicle nears, strays little; an edge that comes and goes, far."""
+    t = np.arange(len(series), dtype=float)
+    design = np.column_stack([t * t, t, np.ones_like(t)])
+    coefficients, *_ = np.linalg.lstsq(design, series, rcond=None)
+    return np.max(np.abs(series - design @ coefficients), axis=0)
