@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import yaml
 
+from vehloc.data.text import read_yaml
 from vehloc.errors import DataError
 from vehloc.geometry.projective import ProjectiveTransform
 
@@ -53,10 +53,7 @@ class CrossingMatch:
 
 def read_crossings(path: str | Path) -> CrossingCount:
     """The hand count at `path` (YAML: row_px, first_frame, crossings of frame and lane); DataError naming the file."""
-    path = Path(path)
-    if not path.is_file():
-        raise DataError(f"{path}: no such crossings file")
-    data = yaml.safe_load(path.read_text())
+    data = read_yaml(path, DataError)
     if not isinstance(data, dict) or not {"row_px", "first_frame", "crossings"} <= set(data):
         raise DataError(f"{path}: needs row_px, first_frame and crossings")
     crossings = []

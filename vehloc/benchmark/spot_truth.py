@@ -14,8 +14,8 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import yaml
 
+from vehloc.data.text import read_yaml
 from vehloc.errors import DataError
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.keypoints import lowered_points_mm
@@ -67,10 +67,7 @@ class SpotCheck:
 
 def read_spot_truth(path: str | Path) -> SpotTruth:
     """The spot-truth YAML at `path`, checked field by field (DataError naming the file and the field)."""
-    path = Path(path)
-    if not path.is_file():
-        raise DataError(f"{path}: no such spot-truth file")
-    data = yaml.safe_load(path.read_text())
+    data = read_yaml(path, DataError)
     if not isinstance(data, dict):
         raise DataError(f"{path}: not a mapping of clearance_mm, clearance_sigma_mm, reading_sigma_px, spots")
     for key in ("clearance_mm", "clearance_sigma_mm", "reading_sigma_px", "spots"):
