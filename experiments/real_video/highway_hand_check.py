@@ -32,6 +32,8 @@ from vehloc.benchmark.crossings import CrossingCount, CrossingMatch, match_cross
 from vehloc.benchmark.spot_truth import SpotCheck, check_spot, read_spot_truth, spot_table
 from vehloc.errors import DataError, exit_on_error
 from vehloc.geometry.camera_calibration import CameraCalibration, read_calibration
+from vehloc.geometry.pipeline.localize import Status
+from vehloc.geometry.pipeline.track_speed import SpeedStatus
 from vehloc.geometry.pipeline.video import iter_frames
 from vehloc.tables import markdown_table
 
@@ -159,8 +161,8 @@ def main() -> None:
     write_text(args.out / "crossings.csv", crossings.to_csv(index=False))
     write_sheets(checks, count, matches, calibration, tables["records"], args.out)
 
-    localized = spots[spots.status == "localized"]
-    measured = tables["tracks"][tables["tracks"].status == "measured"]
+    localized = spots[spots.status == Status.LOCALIZED]
+    measured = tables["tracks"][tables["tracks"].status == SpeedStatus.MEASURED]
     matched = crossings.track_id.notna()
     lines = [
         "# The highway clip against what was read off it by hand",

@@ -18,9 +18,8 @@ import pandas as pd
 
 from vehloc.data.text import read_yaml
 from vehloc.errors import DataError
+from vehloc.geometry.pipeline.track_speed import SpeedStatus
 from vehloc.geometry.projective import ProjectiveTransform
-
-MEASURED = "measured"
 
 
 @dataclass(frozen=True)
@@ -86,7 +85,7 @@ def match_crossings(count: CrossingCount, tracks: pd.DataFrame, trajectories: pd
     """Each crossing with the measured track of `tracks.csv` (and its `trajectories.csv` points used) matched to it;
     a track's lane is `lane_of` its median road X."""
     candidates = []
-    for track in tracks[tracks.status == MEASURED].itertuples():
+    for track in tracks[tracks.status == SpeedStatus.MEASURED].itertuples():
         path = trajectories[(trajectories.track_id == track.track_id) & trajectories.used]
         if len(path) < 2:
             continue

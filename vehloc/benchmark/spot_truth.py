@@ -19,11 +19,11 @@ from vehloc.data.text import read_yaml
 from vehloc.errors import DataError
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.keypoints import lowered_points_mm
+from vehloc.geometry.pipeline.localize import Status
 
 SPOT_FIELDS = ("frame", "lane", "body", "colour", "front_x_px", "front_y_px")
 LANES = ("left", "right")
 BOX_MARGIN_PX = 2.0
-LOCALIZED = "localized"
 
 
 @dataclass(frozen=True)
@@ -125,7 +125,7 @@ def matching_record(records: pd.DataFrame, spot: Spot) -> pd.Series | None:
                   & (frame.box_y0_px - BOX_MARGIN_PX <= y) & (y <= frame.box_y1_px + BOX_MARGIN_PX)]
     if holds.empty:
         return None
-    order = holds.assign(_not_localized=holds.status != LOCALIZED, _gap=(holds.box_y1_px - y).abs())
+    order = holds.assign(_not_localized=holds.status != Status.LOCALIZED, _gap=(holds.box_y1_px - y).abs())
     return holds.loc[order.sort_values(["_not_localized", "_gap"]).index[0]]
 
 
@@ -139,14 +139,14 @@ def check_spot(spot: Spot, truth: SpotTruth, records: pd.DataFrame, camera: Pinh
         return SpotCheck(spot, truth_mm, sigma, None, "no record", "no record's box holds the spot", None,
                          np.nan, np.nan, np.nan, False)
     track = int(record.track_id)
-    if record.status != LOCALIZED:
+    if record.status != Status.LOCALIZED:
         return SpotCheck(spot, truth_mm, sigma, track, str(record.status), str(record.reason_code), None,
                          np.nan, np.nan, np.nan, False)
     corners = np.array([[record[f"corner{i}_x_mm"], record[f"corner{i}_y_mm"]] for i in range(4)])
     front = front_mm(corners, camera.centre_mm[:2])
     error = front - truth_mm
     distance = float(np.hypot(*error))
-    return SpotCheck(spot, truth_mm, sigma, track, LOCALIZED, str(record.method), front, float(error[1]),
+    return SpotCheck(spot, truth_mm, sigma, track, Status.LOCALIZED.value, str(record.method), front, float(error[1]),
                      float(error[0]), distance, distance <= max_error_mm)
 
 

@@ -127,9 +127,8 @@ class TrackerUpdate:
 class StoppedVehicleTracker:
     """Greedy IoU tracker; a track is stopped once its box's middle stays for N frames within a fraction of the box
     diagonal, taken at the height of its top or bottom where the other flickers (blob edges flicker by a few pixels
-    even when the car stands). A track missed in
-    `max_lost_frames` frames in a row is removed; each new track keeps up to `vote_frames` crops for its vote, chosen
-    by `vote_policy` (`TrackVotes`)."""
+    even when the car stands). A track missed in `max_lost_frames` frames in a row is removed; each new track keeps
+    up to `vote_frames` crops for its vote, chosen by `vote_policy` (`TrackVotes`)."""
 
     def __init__(self, vote_frames: int, params: TrackerParams | None = None, vote_policy: str = "spread") -> None:
         self.params = params or TrackerParams.from_config()
