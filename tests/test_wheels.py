@@ -11,7 +11,9 @@ from detector_scenes import (
     site,
 )
 from vehloc.geometry.footprint import FootprintParams, detect_footprint
-from vehloc.geometry.wheels import Ellipse, WheelParams, conic_crossings, detect_wheels, vertical_diameter
+from vehloc.geometry.wheels import (
+    Ellipse, WheelParams, best_per_place, conic_crossings, detect_wheels, vertical_diameter,
+)
 
 PARAMS = WheelParams.from_config()
 
@@ -127,6 +129,19 @@ def test_a_mask_a_pixel_off_moves_the_contacts_by_about_a_pixel(degrade, pose):
     wheels = wheels_of(case)
     assert wheels is not None and len(wheels.wheels) == 2
     assert contact_errors_px(case, wheels).max() <= 3.5
+
+
+def test_of_a_wheels_holes_at_several_darkness_levels_its_rim_is_kept_not_its_hub():
+    """A grey rim counts as dark at the loosest level, which leaves only its hub as a hole; measured, the hub may score
+    higher than the rim. Per place the largest rim stands (its ground a tyre below the rim, not below the hub), and a
+    wheel elsewhere stands beside it."""
+    def measured(centre, semi_axes, score):
+        return (score, Ellipse(np.array(centre, float), np.array(semi_axes, float), 0.0))
+
+    rim, hub = measured((100.0, 50.0), (12.0, 11.0), 0.65), measured((100.2, 50.1), (4.0, 3.6), 0.95)
+    other = measured((240.0, 48.0), (12.0, 11.0), 0.8)
+    kept = best_per_place([hub, rim, other])
+    assert sorted(item[0] for item in kept) == [0.65, 0.8]
 
 
 def test_no_wheels_in_an_empty_mask():

@@ -174,7 +174,8 @@ def rim_candidates(
 ) -> list[tuple[Ellipse, float, np.ndarray]]:
     """Ellipses fitted to the outlines of the holes in the tyre-dark pixels of the silhouette's lower part, at each
     darkness level (dark rims need a low one), with how well each hole fills its ellipse (intersection over
-    union) and that level's dark pixels; of holes found at several levels, the best-filled."""
+    union) and that level's dark pixels. A wheel may give a hole at several levels (its rim at a low one, only its
+    hub at a higher one, where a grey rim counts as dark): all are kept, to be measured as wheels."""
     band = lower_part(mask, params.band_fraction)
     darkest = np.percentile(roi_grey[lower_part(mask, params.dark_band_fraction)], params.dark_percentile)
     rims: list[tuple[Ellipse, float, np.ndarray]] = []
@@ -192,13 +193,22 @@ def rim_candidates(
             cv2.drawContours(hole, [contour], -1, 1, cv2.FILLED)
             inside = rim.mask(dark.shape)
             overlap = np.count_nonzero(inside & hole.astype(bool)) / np.count_nonzero(inside | hole.astype(bool))
-            if overlap < params.min_ellipse_overlap:
-                continue
-            same = [i for i, (other, _, _) in enumerate(rims)
-                    if np.linalg.norm(other.centre_px - rim.centre_px) < other.semi_axes_px[1] / 2]
-            if all(rims[i][1] < overlap for i in same):
-                rims = [item for i, item in enumerate(rims) if i not in same] + [(rim, overlap, dark.astype(bool))]
+            if overlap >= params.min_ellipse_overlap:
+                rims.append((rim, overlap, dark.astype(bool)))
     return rims
+
+
+def best_per_place(found: list[tuple]) -> list[tuple]:
+    """Of measured wheels (score first, rim second) whose rims' centres lie within half a semi-minor axis of each
+    other (one wheel's holes at several darkness levels), the one with the largest rim: a hub's hole lies inside its
+    rim's."""
+    kept: list[tuple] = []
+    for item in sorted(found, key=lambda item: -item[1].semi_axes_px[0]):
+        rim = item[1]
+        if all(np.linalg.norm(other[1].centre_px - rim.centre_px) >= max(other[1].semi_axes_px[1], rim.semi_axes_px[1]) / 2
+               for other in kept):
+            kept.append(item)
+    return kept
 
 
 def conic_crossings(conic: np.ndarray, point_px: np.ndarray, direction: np.ndarray) -> np.ndarray:
@@ -296,9 +306,10 @@ def detect_wheels(
     vertical_vp = road_to_image.homogeneous(foot)[0]
     horizon = road_to_image.map_lines(np.array([0.0, 0.0, 1.0]))[0]
     grey = cv2.cvtColor(roi_bgr, cv2.COLOR_BGR2GRAY).astype(np.float32)
-    found = [measured for roi_rim, overlap, dark in rim_candidates(grey, mask, params)
-             if (measured := measure_wheel(Ellipse(roi_rim.centre_px + offset, roi_rim.semi_axes_px, roi_rim.angle_deg),
-                                           overlap, dark, mask, offset, vertical_vp, horizon, road_to_image, params))]
+    found = best_per_place([measured for roi_rim, overlap, dark in rim_candidates(grey, mask, params)
+                            if (measured := measure_wheel(Ellipse(roi_rim.centre_px + offset, roi_rim.semi_axes_px,
+                                                                  roi_rim.angle_deg), overlap, dark, mask, offset,
+                                                          vertical_vp, horizon, road_to_image, params))])
     if not found:
         return None
     outer_mm = road_to_image.inverse(np.array([item[2] for item in found]))
