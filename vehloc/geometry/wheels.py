@@ -40,6 +40,7 @@ class WheelParams:
     min_ellipse_overlap: float
     tyre_to_rim_range: tuple[float, float]
     min_dark_tyre: float
+    tyre_end_contrast: float
     tyre_diameter_range_mm: tuple[float, float]
     tyre_width_mm: float
     wheelbase_range_mm: tuple[float, float]
@@ -58,6 +59,7 @@ class WheelParams:
         for i, contrast in enumerate(self.dark_contrasts):
             check_range(f"dark_contrasts[{i}]", contrast, 0.0, 255.0, low_open=True)
         check_range("min_dark_tyre", self.min_dark_tyre, 0.0, 1.0)
+        check_range("tyre_end_contrast", self.tyre_end_contrast, 0.0, 255.0, low_open=True)
         check_interval("tyre_diameter_range_mm", self.tyre_diameter_range_mm, 0.0, low_open=True)
         check_range("tyre_width_mm", self.tyre_width_mm, 0.0)
         check_interval("wheelbase_range_mm", self.wheelbase_range_mm, 0.0, low_open=True)
@@ -169,18 +171,21 @@ def lower_part(mask: np.ndarray, fraction: float) -> np.ndarray:
     return part
 
 
-def rim_candidates(
-    roi_grey: np.ndarray, mask: np.ndarray, params: WheelParams
-) -> list[tuple[Ellipse, float, np.ndarray]]:
-    """Ellipses fitted to the outlines of the holes in the tyre-dark pixels of the silhouette's lower part, at each
-    darkness level (dark rims need a low one), with how well each hole fills its ellipse (intersection over
-    union) and that level's dark pixels. A wheel may give a hole at several levels (its rim at a low one, only its
-    hub at a higher one, where a grey rim counts as dark): all are kept, to be measured as wheels."""
+def dark_levels(roi_grey: np.ndarray, mask: np.ndarray, params: WheelParams) -> list[np.ndarray]:
+    """The tyre-dark pixels (bool) of the silhouette's lower part at each darkness level, loosest last."""
     band = lower_part(mask, params.band_fraction)
     darkest = np.percentile(roi_grey[lower_part(mask, params.dark_band_fraction)], params.dark_percentile)
+    return [band & (roi_grey <= darkest + contrast) for contrast in sorted(params.dark_contrasts)]
+
+
+def rim_candidates(levels: list[np.ndarray], params: WheelParams) -> list[tuple[Ellipse, float, np.ndarray]]:
+    """Ellipses fitted to the outlines of the holes in the tyre-dark pixels at each darkness level of `dark_levels`
+    (dark rims need a low one), with how well each hole fills its ellipse (intersection over union) and that level's
+    dark pixels. A wheel may give a hole at several levels (its rim at a low one, only its hub at a higher one, where
+    a grey rim counts as dark): all are kept, to be measured as wheels."""
     rims: list[tuple[Ellipse, float, np.ndarray]] = []
-    for contrast in params.dark_contrasts:
-        dark = (band & (roi_grey <= darkest + contrast)).astype(np.uint8)
+    for level in levels:
+        dark = level.astype(np.uint8)
         contours, hierarchy = cv2.findContours(dark, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
         for contour, (_, _, _, parent) in zip(contours, hierarchy[0] if hierarchy is not None else []):
             if parent < 0 or len(contour) < 5:  # holes only
@@ -233,13 +238,15 @@ def tyre_diameter_mm(
 
 
 def measure_wheel(
-    rim: Ellipse, overlap: float, dark: np.ndarray, mask: np.ndarray, offset_px: np.ndarray, vertical_vp: np.ndarray,
-    horizon: np.ndarray, road_to_image: ProjectiveTransform, params: WheelParams,
+    rim: Ellipse, overlap: float, dark: np.ndarray, grey: np.ndarray, mask: np.ndarray, offset_px: np.ndarray,
+    vertical_vp: np.ndarray, horizon: np.ndarray, road_to_image: ProjectiveTransform, params: WheelParams,
 ) -> tuple[float, Ellipse, np.ndarray, float, np.ndarray, np.ndarray, bool] | None:
     """A rim (frame px) measured as a wheel: its score, the rim, the outer contact (frame px), the tyre's scale
     from the rim, the vertical diameter, the horizontal vanishing point (homogeneous) and whether the tyre is
     the nominal one (the silhouette not ending below it); None when the ground is not a tyre's depth below the
-    rim, the tyre between them is not dark, or the tyre is not wheel-sized."""
+    rim, the tyre between them is not dark, or the tyre is not wheel-sized. The ground is where the silhouette ends
+    below the rim, or sooner where the tyre ends above a lighter shadow that the silhouette holds: where the ROI's
+    `grey` first rises `tyre_end_contrast` above the tyre's own level (the lower quartile between rim and ground)."""
     line, horizontal_vp = vertical_diameter(rim, vertical_vp, horizon)
     line = line / np.hypot(line[0], line[1])
     direction = np.array([line[1], -line[0]]) * (1.0 if -line[0] >= 0 else -1.0)  # down the image
@@ -249,6 +256,15 @@ def measure_wheel(
         return None
     low, high = params.tyre_to_rim_range
     measured = ground_crossing_px(mask, centre - offset_px, direction, high * rim_bottom_px + 2.0)
+    inside_tyre = rim_bottom_px + 1.0
+    if measured is not None and measured > inside_tyre:
+        below = centre - offset_px + np.arange(inside_tyre, measured, 0.25)[:, None] * direction
+        level = np.percentile(map_coordinates(grey, [below[:, 1], below[:, 0]], order=1, mode="nearest"), 25)
+        tyre = mask & (grey <= level + params.tyre_end_contrast)
+        tyre_end = ground_crossing_px(tyre, centre - offset_px + inside_tyre * direction, direction,
+                                      measured - inside_tyre + 1.0)
+        if tyre_end is not None:
+            measured = min(measured, inside_tyre + tyre_end)
     # where the silhouette ends a tyre below the rim, the ground is there; where it carries on below (a shadow
     # under the car), a tyre of the nominal size is tried too
     nominal = params.tyre_to_rim_nominal * rim_bottom_px
@@ -306,10 +322,11 @@ def detect_wheels(
     vertical_vp = road_to_image.homogeneous(foot)[0]
     horizon = road_to_image.map_lines(np.array([0.0, 0.0, 1.0]))[0]
     grey = cv2.cvtColor(roi_bgr, cv2.COLOR_BGR2GRAY).astype(np.float32)
-    found = best_per_place([measured for roi_rim, overlap, dark in rim_candidates(grey, mask, params)
+    levels = dark_levels(grey, mask, params)
+    found = best_per_place([measured for roi_rim, overlap, dark in rim_candidates(levels, params)
                             if (measured := measure_wheel(Ellipse(roi_rim.centre_px + offset, roi_rim.semi_axes_px,
-                                                                  roi_rim.angle_deg), overlap, dark, mask, offset,
-                                                          vertical_vp, horizon, road_to_image, params))])
+                                                                  roi_rim.angle_deg), overlap, dark, grey, mask,
+                                                          offset, vertical_vp, horizon, road_to_image, params))])
     if not found:
         return None
     outer_mm = road_to_image.inverse(np.array([item[2] for item in found]))
