@@ -16,7 +16,7 @@ from omegaconf import OmegaConf
 
 from vehloc.benchmark.cases import COLOUR_GROUPS, colour_group, draw_case, in_view
 from vehloc.benchmark.report import view_of, with_groups, write_report
-from vehloc.benchmark.runner import true_box
+from vehloc.benchmark.runner import run_case, true_box
 from vehloc.benchmark.suite import BenchmarkSettings, run_benchmark
 from vehloc.benchmark.visibility import VisibilityParams, visibility
 from vehloc.config import ConfigError, config_dir
@@ -28,12 +28,12 @@ from vehloc.synth.scene import CameraSpec
 
 PROJECT_ROOT = Path(__file__).resolve().parents[1]
 GATE_SEEDS = 24
-GATE_LOCALIZED, GATE_FIT_WITHIN, GATE_KEY_POINTS = 22, 10, 9
-"""The subset reached 23 localized, 11 fits within 1 % and 1 deg and the paper's key points found on 10 of its 20 cases
-that show them (the benchmark gave the same figures on an Intel Xeon and an AMD EPYC); one case of each is the margin
-for another CPU's arithmetic (some fits lie within 0.15 of a bar). Before the wider wheel band and the smaller blobs
-it reached 22 localized and 8 key points; before the fit from the silhouette and the covered-road cue, 7 localized
-and 5 fits."""
+GATE_LOCALIZED, GATE_FIT_WITHIN, GATE_KEY_POINTS = 22, 10, 11
+"""The subset reaches 22 localized (seeds 7 and 11 are not tracked to their stop), 11 fits within 1 % and 1 deg and the
+paper's key points found on 12 of its 20 cases that show them; one case of the fits and the key points is the margin
+for another CPU's arithmetic (some fits lie within 0.15 of a bar). Before the wheels' last change (the rim kept over
+its hub, the ground where the tyre ends) it found key points on 10; before the wider wheel band and the smaller
+blobs 8; before the fit from the silhouette and the covered-road cue, 7 were localized and 5 fits within."""
 
 
 def composed(*overrides: str) -> dict:
@@ -161,6 +161,17 @@ def test_the_development_subset_holds_its_rates(tmp_path: Path):
     assert int(grouped["key_points_found"].fillna(0).sum()) >= GATE_KEY_POINTS
     written = write_report(frame, tmp_path, "gate", [o.picture_bgr for o in outcomes if o.picture_bgr is not None])
     assert {p.name for p in written} >= {"cases.csv", "groups.csv", "report.md", "errors.png"}
+
+
+def test_a_whole_car_whose_shadow_alone_reaches_the_frame_edge_is_localized(settings: BenchmarkSettings):
+    """Development seed 81: a Porsche Panamera stopped 19 px above the frame's bottom, its cast shadow running off the
+    frame. Its blob touches the edge, its own pixels do not: it is localized, the fit within 1 % and 1 deg (0.28 %,
+    0.13 deg; before, `touches_edge`)."""
+    case = draw_case(81, settings.cameras, RoadLayout(**settings.site["layout"]), settings.draw)
+    camera = settings.cameras[case.camera_name]
+    row = run_case(case, "dev", settings.site, camera, settings.draw, settings.visibility, settings.localize).row
+    assert row["localized"] and row["reason_code"] == "", row["reason"]
+    assert row["fit_position_pct"] <= 1.0 and row["fit_heading_deg"] <= 1.0
 
 
 def test_a_car_without_plates_differs_from_one_with_them_only_where_its_plate_is():

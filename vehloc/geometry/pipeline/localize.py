@@ -224,11 +224,23 @@ class Localizer:
         return best_start(self.calibration.camera, weights, roi, self.classifier.metadata.shape_of(spec.model_id),
                           candidates, self.fit_params.supersample)
 
+    def body_touches_border(self, box: Box, width_px: int, height_px: int) -> bool:
+        """Whether the vehicle's own pixels (its silhouette without the shadow under it) reach within the margin of the
+        frame's edge; a blob whose cast shadow alone reaches it holds the whole vehicle."""
+        roi = box.enlarged(self.params.detector_roi_fraction, width_px, height_px)
+        rows, columns = np.nonzero(self.extractor.foreground(roi).trimmed())
+        if len(rows) == 0:
+            return True
+        body = Box(roi.x0 + int(columns.min()), roi.y0 + int(rows.min()), roi.x0 + int(columns.max()) + 1,
+                   roi.y0 + int(rows.max()) + 1)
+        return body.touches_border(width_px, height_px, self.params.border_margin_px)
+
     def localize(self, track: VehicleTrack, frame_index: int, frame_bgr: np.ndarray) -> VehicleRecord:
         """The record of one tracked vehicle at this frame."""
         box = track.box
         height_px, width_px = frame_bgr.shape[:2]
-        if box.touches_border(width_px, height_px, self.params.border_margin_px):
+        if (box.touches_border(width_px, height_px, self.params.border_margin_px)
+                and self.body_touches_border(box, width_px, height_px)):
             return not_localized(track, frame_index, NotPlaced(ReasonCode.TOUCHES_EDGE,
                                                                "the vehicle touches the frame's edge"))
         if track.votes.empty:
