@@ -8,10 +8,11 @@ show their rims: the far side's are turned away. The circle's image gives its ow
 polar of the vertical vanishing point (the image of the camera's foot point) with respect to the ellipse is
 the wheel's horizontal diameter, which meets the horizon in the vanishing point of the wheel's plane, and the
 polar of that point is its vertical diameter, through the centre and the bottom of the tyre, which is
-concentric with the rim. Where the vertical diameter leaves the silhouette, the tyre's outer face touches
-the road; the tyre's contact (the middle of its tread) lies half a tyre width further in, across the wheel's
-plane on the road, away from the camera. Of the wheels found, the best pair a wheelbase apart on a line along
-both wheels' planes is kept (a lone wheel otherwise).
+concentric with the rim. Where the vertical diameter leaves the silhouette, or sooner where the tyre's darkness
+ends above a lighter shadow, the tyre's outer face touches the road; the tyre's contact (the middle of its tread)
+lies half a tyre width further in, across the wheel's plane on the road, away from the camera. A wheel may show
+as a hole at several levels (a grey rim's hub alone at the loosest); per place the largest rim stands. Of the
+wheels found, the best pair a wheelbase apart on a line along both wheels' planes is kept (a lone wheel otherwise).
 """
 
 from __future__ import annotations
@@ -204,14 +205,14 @@ def rim_candidates(levels: list[np.ndarray], params: WheelParams) -> list[tuple[
 
 
 def best_per_place(found: list[tuple]) -> list[tuple]:
-    """Of measured wheels (score first, rim second) whose rims' centres lie within half a semi-minor axis of each
-    other (one wheel's holes at several darkness levels), the one with the largest rim: a hub's hole lies inside its
-    rim's."""
+    """Of measured wheels (score first, rim second) whose rims' centres lie within half the larger semi-minor axis of
+    each other (one wheel's holes at several darkness levels), the one with the largest rim: a hub's hole lies inside
+    its rim's."""
     kept: list[tuple] = []
     for item in sorted(found, key=lambda item: -item[1].semi_axes_px[0]):
         rim = item[1]
-        if all(np.linalg.norm(other[1].centre_px - rim.centre_px) >= max(other[1].semi_axes_px[1], rim.semi_axes_px[1]) / 2
-               for other in kept):
+        if all(np.linalg.norm(other.centre_px - rim.centre_px) >= max(other.semi_axes_px[1], rim.semi_axes_px[1]) / 2
+               for other in (kept_item[1] for kept_item in kept)):
             kept.append(item)
     return kept
 
