@@ -172,21 +172,18 @@ def lower_part(mask: np.ndarray, fraction: float) -> np.ndarray:
     return part
 
 
-def dark_levels(roi_grey: np.ndarray, mask: np.ndarray, params: WheelParams) -> list[np.ndarray]:
-    """The tyre-dark pixels (bool) of the silhouette's lower part at each darkness level, loosest last."""
+def rim_candidates(
+    roi_grey: np.ndarray, mask: np.ndarray, params: WheelParams
+) -> list[tuple[Ellipse, float, np.ndarray]]:
+    """Ellipses fitted to the outlines of the holes in the tyre-dark pixels of the silhouette's lower part, at each
+    darkness level (dark rims need a low one), with how well each hole fills its ellipse (intersection over
+    union) and that level's dark pixels. A wheel may give a hole at several levels (its rim at a low one, only its
+    hub at a higher one, where a grey rim counts as dark): all are kept, to be measured as wheels."""
     band = lower_part(mask, params.band_fraction)
     darkest = np.percentile(roi_grey[lower_part(mask, params.dark_band_fraction)], params.dark_percentile)
-    return [band & (roi_grey <= darkest + contrast) for contrast in sorted(params.dark_contrasts)]
-
-
-def rim_candidates(levels: list[np.ndarray], params: WheelParams) -> list[tuple[Ellipse, float, np.ndarray]]:
-    """Ellipses fitted to the outlines of the holes in the tyre-dark pixels at each darkness level of `dark_levels`
-    (dark rims need a low one), with how well each hole fills its ellipse (intersection over union) and that level's
-    dark pixels. A wheel may give a hole at several levels (its rim at a low one, only its hub at a higher one, where
-    a grey rim counts as dark): all are kept, to be measured as wheels."""
     rims: list[tuple[Ellipse, float, np.ndarray]] = []
-    for level in levels:
-        dark = level.astype(np.uint8)
+    for contrast in params.dark_contrasts:
+        dark = (band & (roi_grey <= darkest + contrast)).astype(np.uint8)
         contours, hierarchy = cv2.findContours(dark, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
         for contour, (_, _, _, parent) in zip(contours, hierarchy[0] if hierarchy is not None else []):
             if parent < 0 or len(contour) < 5:  # holes only
@@ -323,8 +320,7 @@ def detect_wheels(
     vertical_vp = road_to_image.homogeneous(foot)[0]
     horizon = road_to_image.map_lines(np.array([0.0, 0.0, 1.0]))[0]
     grey = cv2.cvtColor(roi_bgr, cv2.COLOR_BGR2GRAY).astype(np.float32)
-    levels = dark_levels(grey, mask, params)
-    found = best_per_place([measured for roi_rim, overlap, dark in rim_candidates(levels, params)
+    found = best_per_place([measured for roi_rim, overlap, dark in rim_candidates(grey, mask, params)
                             if (measured := measure_wheel(Ellipse(roi_rim.centre_px + offset, roi_rim.semi_axes_px,
                                                                   roi_rim.angle_deg), overlap, dark, grey, mask,
                                                           offset, vertical_vp, horizon, road_to_image, params))])

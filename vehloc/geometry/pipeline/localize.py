@@ -228,12 +228,11 @@ class Localizer:
         """Whether the vehicle's own pixels (its silhouette without the shadow under it) reach within the margin of the
         frame's edge; a blob whose cast shadow alone reaches it holds the whole vehicle."""
         roi = box.enlarged(self.params.detector_roi_fraction, width_px, height_px)
-        rows, columns = np.nonzero(self.extractor.foreground(roi).trimmed())
-        if len(rows) == 0:
+        body = Box.tight(self.extractor.foreground(roi).trimmed())
+        if body is None:
             return True
-        body = Box(roi.x0 + int(columns.min()), roi.y0 + int(rows.min()), roi.x0 + int(columns.max()) + 1,
-                   roi.y0 + int(rows.max()) + 1)
-        return body.touches_border(width_px, height_px, self.params.border_margin_px)
+        in_frame = Box(roi.x0 + body.x0, roi.y0 + body.y0, roi.x0 + body.x1, roi.y0 + body.y1)
+        return in_frame.touches_border(width_px, height_px, self.params.border_margin_px)
 
     def localize(self, track: VehicleTrack, frame_index: int, frame_bgr: np.ndarray) -> VehicleRecord:
         """The record of one tracked vehicle at this frame."""
