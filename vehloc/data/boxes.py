@@ -70,6 +70,10 @@ class Box:
         """The overlap of two boxes (empty when they do not overlap)."""
         return Box(max(self.x0, other.x0), max(self.y0, other.y0), min(self.x1, other.x1), min(self.y1, other.y1))
 
+    def union(self, other: Box) -> Box:
+        """The smallest box holding both."""
+        return Box(min(self.x0, other.x0), min(self.y0, other.y0), max(self.x1, other.x1), max(self.y1, other.y1))
+
     def iou(self, other: Box) -> float:
         inter = self.intersection(other).area_px
         union = self.area_px + other.area_px - inter

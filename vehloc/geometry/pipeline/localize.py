@@ -165,7 +165,7 @@ class Localizer:
         with self.clock.stage("background"):
             boxes = self.extractor.apply(frame_bgr)
         with self.clock.stage("tracking"):
-            update = self.tracker.update(boxes, frame_index)
+            update = self.tracker.update(boxes, frame_index, height_px)
             self.removed = update.removed
             for track in update.seen:
                 cut = track.box.touches_border(width_px, height_px, self.params.border_margin_px)

@@ -99,8 +99,12 @@ class TrackerParams:
     motion_frames: int
     max_shared_frames: int
     shared_min_cover: float
+    fragment_min_inside: float
+    fragment_min_gain_iou: float
 
     def __post_init__(self) -> None:
+        check_range("fragment_min_inside", self.fragment_min_inside, 0.0, 1.0, low_open=True)
+        check_range("fragment_min_gain_iou", self.fragment_min_gain_iou, 0.0, 1.0)
         check_range("motion_frames", self.motion_frames, 0)
         check_range("max_shared_frames", self.max_shared_frames, 0)
         check_range("shared_min_cover", self.shared_min_cover, 0.0, 1.0, low_open=True)
@@ -136,16 +140,19 @@ class StoppedVehicleTracker:
         self.vote_policy = vote_policy
         self.tracks: list[VehicleTrack] = []
         self._next_id = 1
+        self.frame_height_px: int | None = None
 
     @property
     def started(self) -> int:
         """How many tracks were started so far (removed ones included)."""
         return self._next_id - 1
 
-    def update(self, boxes: list[Box], frame_index: int) -> TrackerUpdate:
+    def update(self, boxes: list[Box], frame_index: int, frame_height_px: int | None = None) -> TrackerUpdate:
         """Associate this frame's boxes with the tracks (each track's box where its motion takes it), share a box
         among the tracks it covers, start a track for each box left over, and remove the tracks missed in the last
-        `max_lost_frames` frames (or shared for more than `max_shared_frames`)."""
+        `max_lost_frames` frames (or shared for more than `max_shared_frames`). With the frame's height, a box's top
+        or bottom held at the frame's edge is never taken as the steady one (see `is_still`)."""
+        self.frame_height_px = frame_height_px
         expected = {t.track_id: t.predicted_box(frame_index, self.params.motion_frames) for t in self.tracks}
         unmatched, sharing = self.still_shared(list(boxes))
         for track in sorted(self.tracks, key=lambda t: -t.box.area_px):
@@ -156,7 +163,8 @@ class StoppedVehicleTracker:
             overlaps = [expected[track.track_id].iou(b) for b in unmatched]
             best = int(np.argmax(overlaps))
             if overlaps[best] >= self.params.min_iou:
-                track.observe(unmatched.pop(best), frame_index)
+                track.observe(self.with_fragments(unmatched.pop(best), expected[track.track_id], unmatched),
+                              frame_index)
         self.merged(expected, sharing, frame_index)
         self.parted(unmatched, expected, sharing, frame_index)
         for box in unmatched:
@@ -184,6 +192,21 @@ class StoppedVehicleTracker:
             kept.append(track)
         self.tracks = kept
         return TrackerUpdate(seen, stopped, removed)
+
+    def with_fragments(self, box: Box, expected: Box, unmatched: list[Box]) -> Box:
+        """`box` joined with the boxes left over that are fragments of the same vehicle (taken out of `unmatched`):
+        those lying at least `fragment_min_inside` inside where the track should be, each joined while it brings the
+        box at least `fragment_min_gain_iou` closer (IoU) to there. A vehicle of the road's colour breaks into blobs
+        (a grey body over grey asphalt keeps only its windows and its lower edge), and its box would jump between
+        them."""
+        for fragment in sorted(unmatched, key=lambda b: -b.area_px):
+            if fragment.intersection(expected).area_px < self.params.fragment_min_inside * fragment.area_px:
+                continue
+            joined = box.union(fragment)
+            if joined.iou(expected) >= box.iou(expected) + self.params.fragment_min_gain_iou:
+                box = joined
+                unmatched.remove(fragment)
+        return box
 
     def still_shared(self, boxes: list[Box]) -> tuple[list[Box], dict[int, Box]]:
         """The boxes not shared, and each sharing track's shared box: the tracks that shared a box in the last frame
@@ -246,7 +269,8 @@ class StoppedVehicleTracker:
         """Whether the track's box stayed put over its last `stop_frames` frames, seen one after another: its middle
         within `stop_tolerance_fraction` of its diagonal of where it is now. Where its top or its bottom flickers
         (strays from a smooth motion by more than half that: a standing car's shadow comes and goes from the
-        foreground, a grey roof fades into the road) and the other does not, the middle is taken at the other's height."""
+        foreground, a grey roof fades into the road) and the other does not, the middle is taken at the other's height,
+        unless that one lies on the frame's edge (a vehicle coming in over it: the edge holds the box still)."""
         n = self.params.stop_frames
         if len(track.boxes) < n or track.frames[-1] - track.frames[-n] != n - 1:
             return False
@@ -255,10 +279,16 @@ class StoppedVehicleTracker:
         tolerance_px = self.params.stop_tolerance_fraction * np.hypot(track.box.width_px, track.box.height_px)
         flicker = flicker_px(shifts[:, [1, 3]]) > tolerance_px / 2.0
         y_shift = (shifts[:, 1] + shifts[:, 3]) / 2.0
-        if flicker[0] != flicker[1]:
+        if flicker[0] != flicker[1] and not self.held_by_edge(edges[:, 3] if flicker[0] else edges[:, 1]):
             y_shift = shifts[:, 3] if flicker[0] else shifts[:, 1]
         moved = np.hypot((shifts[:, 0] + shifts[:, 2]) / 2.0, y_shift)
         return float(np.max(moved)) <= tolerance_px
+
+    def held_by_edge(self, values_px: np.ndarray) -> bool:
+        """Whether a box's top or bottom (over frames) touches the frame's top or bottom edge in any of them."""
+        if self.frame_height_px is None:
+            return False
+        return bool(np.any(values_px <= 0) or np.any(values_px >= self.frame_height_px))
 
 
 def flicker_px(series: np.ndarray) -> np.ndarray:
