@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from vehloc.config import ConfigError
+from vehloc.data.boxes import Box
 from vehloc.geometry.roi import RoiParams, vehicle_silhouette, without_specks
 
 FACE_ROWS, FACE_COLUMNS = (20, 60), (30, 90)  # the body face, half-open rows and columns
@@ -109,3 +110,23 @@ def test_dark_paint_of_a_colour_weighs_fully_and_dark_grey_is_doubted(scene: tup
     face = (slice(FACE_ROWS[0] + 4, FACE_ROWS[1] - 4), slice(FACE_COLUMNS[0] + 4, FACE_COLUMNS[1] - 4))
     assert (vehicle_silhouette(red, background, params).weights[face] == 1.0).all()
     assert (vehicle_silhouette(frame, background, params).weights[face] == params.silhouette_doubt_weight).all()
+
+
+def test_a_vehicle_broken_by_a_band_of_the_roads_look_keeps_both_parts_inside_its_box():
+    """A white body (rows 20-44) over a dark lower part with its wheels (rows 55-65), joined by a band that looks
+    like the road (the road's own grain: neither changed nor covered) 10 px high: two blobs. Without the vehicle's
+    box the larger alone is the silhouette and the lower part is lost; with it, the lower part (centred inside the
+    box, a third of the body's area) is the vehicle's too. A blob of another vehicle beside the box is not."""
+    background = _road((100, 140), seed=1)
+    frame = background.copy()
+    frame[20:45, 30:90] = 230
+    frame[55:66, 34:86] = 40
+    frame[75:85, 120:135] = 230  # another vehicle's part, outside the box
+    params = RoiParams.from_config()
+    alone = vehicle_silhouette(frame, background, params).mask
+    assert alone[25:40, 35:85].all() and not alone[57:64, 38:82].any()
+    parts = vehicle_silhouette(frame, background, params, Box(28, 18, 92, 68)).mask
+    assert parts[25:40, 35:85].all() and parts[57:64, 38:82].all() and not parts[75:85, 120:135].any()
+    off = vehicle_silhouette(frame, background, RoiParams.from_config(silhouette_min_part_fraction=1.0),
+                             Box(28, 18, 92, 68)).mask
+    assert not off[57:64, 38:82].any()

@@ -9,6 +9,7 @@ vehicle boxes (the tracker that follows them is the pipeline's: `vehloc.geometry
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import cv2
@@ -56,6 +57,7 @@ class RoiParams:
     silhouette_doubt_weight: float
     silhouette_smooth_ratio: float
     silhouette_min_solid_px: int
+    silhouette_min_part_fraction: float
     min_changed_fraction: float
 
     def __post_init__(self) -> None:
@@ -80,6 +82,7 @@ class RoiParams:
         check_range("silhouette_doubt_weight", self.silhouette_doubt_weight, 0.0, 1.0)
         check_range("silhouette_smooth_ratio", self.silhouette_smooth_ratio, 0.0)
         check_range("min_changed_fraction", self.min_changed_fraction, 0.0, 1.0)
+        check_range("silhouette_min_part_fraction", self.silhouette_min_part_fraction, 0.0, 1.0)
 
     @classmethod
     def from_config(cls, **overrides: object) -> RoiParams:
@@ -175,7 +178,8 @@ class Silhouette:
         return self.mask & (rows <= lowest[None, :] + self.margin_px)
 
 
-def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: RoiParams) -> Silhouette:
+def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: RoiParams,
+                       body: Box | None = None) -> Silhouette:
     """The vehicle's pixels in an ROI at full resolution, against the full-resolution background.
 
     A pixel is the vehicle's where its colour changed by more than `silhouette_threshold` (any channel) and it is
@@ -183,7 +187,9 @@ def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: 
     through: correlated with the background's over the window), or where the road has texture that no longer
     shows (correlation below `silhouette_covered_max_correlation`: a body face of the road's colour; shrunk by
     `silhouette_covered_erode_px`, as the window's reach would grow it onto the road). Closed, holes filled, the
-    largest blob kept. A pixel darker than the road that keeps its chromaticity (within
+    largest blob kept, and with it, where the vehicle's box in the ROI (`body`, the tracked box) is given, every
+    blob of at least `silhouette_min_part_fraction` of its area whose centre lies in that box: a body face of the
+    road's colour breaks a vehicle into parts (a grey side over grey asphalt cuts the wheels off). A pixel darker than the road that keeps its chromaticity (within
     `silhouette_doubt_max_chroma`) may be shadow the texture test could not tell: it weighs
     `silhouette_doubt_weight` in the fit (dark paint of a colour weighs 1). Darker pixels are solid where their
     texture is below `silhouette_smooth_ratio` of the road's there (darkened alike): a smooth body face, unless
@@ -210,7 +216,8 @@ def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: 
     contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
     filled = np.zeros_like(mask)
     if contours:
-        cv2.drawContours(filled, [max(contours, key=cv2.contourArea)], -1, 255, cv2.FILLED)
+        cv2.drawContours(filled, vehicle_parts(contours, body, params.silhouette_min_part_fraction), -1, 255,
+                         cv2.FILLED)
     vehicle = filled > 0
     darker_than_road = ratio <= high
     chroma_shift = np.abs(frame / frame_sum[..., None] - background / background_sum[..., None]).max(axis=2)
@@ -220,6 +227,22 @@ def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: 
     solid = without_specks(vehicle & (~darker_than_road | smooth), params.silhouette_min_solid_px)
     return Silhouette(vehicle, np.where(vehicle, np.where(doubtful, params.silhouette_doubt_weight, 1.0), 0.0),
                       solid, window // 2)
+
+
+def vehicle_parts(contours: Sequence[np.ndarray], body: Box | None, min_part_fraction: float) -> list[np.ndarray]:
+    """The largest blob's outline and, with `body` given, those of the blobs of at least `min_part_fraction` of its
+    area whose centre (of their outline's box) lies inside `body`."""
+    areas = [cv2.contourArea(contour) for contour in contours]
+    largest = int(np.argmax(areas))
+    parts = [contours[largest]]
+    if body is None:
+        return parts
+    for index, contour in enumerate(contours):
+        x, y, w, h = cv2.boundingRect(contour)
+        if (index != largest and areas[index] >= min_part_fraction * areas[largest]
+                and body.x0 <= x + w / 2 < body.x1 and body.y0 <= y + h / 2 < body.y1):
+            parts.append(contour)
+    return parts
 
 
 def without_specks(mask: np.ndarray, min_area_px: int) -> np.ndarray:
@@ -320,10 +343,11 @@ class VehicleRoiExtractor:
         rate = min(1.0, self.params.learning_rate_after_history * self.params.background_every_frames)
         cv2.accumulateWeighted(frame_bgr, self.background, rate, still.astype(np.uint8))
 
-    def foreground(self, roi: Box) -> Silhouette:
-        """The last frame's vehicle pixels inside `roi` (frame pixels), at full resolution (see
-        `vehicle_silhouette`)."""
+    def foreground(self, roi: Box, body: Box | None = None) -> Silhouette:
+        """The last frame's vehicle pixels inside `roi` (frame pixels), at full resolution, `body` the vehicle's box
+        there (frame pixels; see `vehicle_silhouette`)."""
         if self.last_frame is None or self.background is None:
             raise RuntimeError("no frame has been applied yet")
         background = roi.crop(self.background).astype(np.uint8)
-        return vehicle_silhouette(roi.crop(self.last_frame), background, self.params)
+        inside = None if body is None else Box(body.x0 - roi.x0, body.y0 - roi.y0, body.x1 - roi.x0, body.y1 - roi.y0)
+        return vehicle_silhouette(roi.crop(self.last_frame), background, self.params, inside)

@@ -228,7 +228,7 @@ class Localizer:
         """Whether the vehicle's own pixels (its silhouette without the shadow under it) reach within the margin of the
         frame's edge; a blob whose cast shadow alone reaches it holds the whole vehicle."""
         roi = box.enlarged(self.params.detector_roi_fraction, width_px, height_px)
-        body = Box.tight(self.extractor.foreground(roi).trimmed())
+        body = Box.tight(self.extractor.foreground(roi, box).trimmed())
         if body is None:
             return True
         in_frame = Box(roi.x0 + body.x0, roi.y0 + body.y0, roi.x0 + body.x1, roi.y0 + body.y1)
@@ -259,7 +259,7 @@ class Localizer:
         if motion is not None:
             record = replace(record, notes=f"heading from the track's path (sigma {motion.sigma_deg:.1f} deg)")
         with self.clock.stage("key points"):
-            silhouette = self.extractor.foreground(roi)
+            silhouette = self.extractor.foreground(roi, box)
             placement = paper_placement(roi.crop(frame_bgr), silhouette, roi, self.calibration, spec,
                                         self.classifier.metadata.shape_of(spec.model_id), self.detectors,
                                         went.visible_end)
