@@ -100,11 +100,11 @@ class TrackerParams:
     max_shared_frames: int
     shared_min_cover: float
     fragment_min_inside: float
-    fragment_min_gain_iou: float
+    fragment_min_iou: float
 
     def __post_init__(self) -> None:
         check_range("fragment_min_inside", self.fragment_min_inside, 0.0, 1.0, low_open=True)
-        check_range("fragment_min_gain_iou", self.fragment_min_gain_iou, 0.0, 1.0)
+        check_range("fragment_min_iou", self.fragment_min_iou, 0.0, 1.0)
         check_range("motion_frames", self.motion_frames, 0)
         check_range("max_shared_frames", self.max_shared_frames, 0)
         check_range("shared_min_cover", self.shared_min_cover, 0.0, 1.0, low_open=True)
@@ -195,18 +195,21 @@ class StoppedVehicleTracker:
 
     def with_fragments(self, box: Box, expected: Box, unmatched: list[Box]) -> Box:
         """`box` joined with the boxes left over that are fragments of the same vehicle (taken out of `unmatched`):
-        those lying at least `fragment_min_inside` inside where the track should be, each joined while it brings the
-        box at least `fragment_min_gain_iou` closer (IoU) to there. A vehicle of the road's colour breaks into blobs
-        (a grey body over grey asphalt keeps only its windows and its lower edge), and its box would jump between
-        them."""
-        for fragment in sorted(unmatched, key=lambda b: -b.area_px):
-            if fragment.intersection(expected).area_px < self.params.fragment_min_inside * fragment.area_px:
-                continue
-            joined = box.union(fragment)
-            if joined.iou(expected) >= box.iou(expected) + self.params.fragment_min_gain_iou:
-                box = joined
-                unmatched.remove(fragment)
-        return box
+        those lying at least `fragment_min_inside` inside where the track should be, joined when together they
+        restore that box (IoU above `fragment_min_iou`, and above `box`'s own). A standing vehicle of the road's
+        colour breaks into blobs (a grey body over grey asphalt keeps its windows and its lower edge apart), and its
+        box would jump between them; a vehicle passing close by fills no such gap so exactly and keeps its own track."""
+        inside = [b for b in unmatched
+                  if b.intersection(expected).area_px >= self.params.fragment_min_inside * b.area_px]
+        if not inside:
+            return box
+        joined = box
+        for fragment in inside:
+            joined = joined.union(fragment)
+        if joined.iou(expected) <= max(self.params.fragment_min_iou, box.iou(expected)):
+            return box
+        unmatched[:] = [b for b in unmatched if b not in inside]
+        return joined
 
     def still_shared(self, boxes: list[Box]) -> tuple[list[Box], dict[int, Box]]:
         """The boxes not shared, and each sharing track's shared box: the tracks that shared a box in the last frame
