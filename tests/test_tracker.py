@@ -160,13 +160,14 @@ def test_a_standing_car_whose_blob_breaks_in_two_keeps_one_track_and_is_still() 
     """A grey car standing on grey asphalt (its box 242 x 274 px) whose blob breaks, every other frame, into its
     upper part and its lower edge (dev seed 139 of the localization benchmark): the lower part lies inside where the
     track should be and joining it brings the box back to the whole car, so the one track keeps the whole box and
-    is still after ten frames; with fragments never joined (an IoU no join reaches) the box jumps between the whole car and its upper part, a second track starts, and it is never still."""
+    is still after ten frames (`fragment_min_iou` 0.9); with fragments never joined (the default, 1) the box jumps
+    between the whole car and its upper part, a second track starts, and it is never still."""
     whole, upper, lower = Box(786, 420, 1028, 694), Box(786, 420, 998, 584), Box(848, 586, 1028, 694)
     frames = [[whole] if f % 2 == 0 else [upper, lower] for f in range(20)]
-    joined = StoppedVehicleTracker(4, TrackerParams.from_config(stop_frames=10))
+    joined = StoppedVehicleTracker(4, TrackerParams.from_config(stop_frames=10, fragment_min_iou=0.9))
     stops = [bool(joined.update(boxes, f).stopped) for f, boxes in enumerate(frames)]
     assert stops.index(True) == 9 and joined.started == 1 and joined.tracks[0].boxes == [whole] * 20
-    apart = StoppedVehicleTracker(4, TrackerParams.from_config(stop_frames=10, fragment_min_iou=1.0))
+    apart = StoppedVehicleTracker(4, TrackerParams.from_config(stop_frames=10))
     assert not any(apart.update(boxes, f).stopped for f, boxes in enumerate(frames)) and apart.started == 2
 
 
@@ -176,7 +177,7 @@ def test_a_small_car_inside_a_whole_tracked_cars_box_is_not_taken_as_its_fragmen
     the near car's hidden half (its box half of where it should be) joined to it: together they make 0.8 of the near
     car's box, not the 0.9 a vehicle's own parts restore."""
     near, far = Box(700, 400, 1000, 700), Box(900, 420, 940, 444)
-    t = StoppedVehicleTracker(4, TrackerParams.from_config())
+    t = StoppedVehicleTracker(4, TrackerParams.from_config(fragment_min_iou=0.9))
     t.update([near], 0)
     update = t.update([near, far], 1)
     assert t.started == 2 and {track.box for track in update.seen} == {near, far}

@@ -189,12 +189,12 @@ def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: 
     `silhouette_covered_erode_px`, as the window's reach would grow it onto the road). Closed, holes filled, the
     largest blob kept, and with it, where the vehicle's box in the ROI (`body`, the tracked box) is given, every
     blob of at least `silhouette_min_part_fraction` of its area whose centre lies in that box: a body face of the
-    road's colour breaks a vehicle into parts (a grey side over grey asphalt cuts the wheels off). A pixel darker than the road that keeps its chromaticity (within
-    `silhouette_doubt_max_chroma`) may be shadow the texture test could not tell: it weighs
-    `silhouette_doubt_weight` in the fit (dark paint of a colour weighs 1). Darker pixels are solid where their
-    texture is below `silhouette_smooth_ratio` of the road's there (darkened alike): a smooth body face, unless
-    they form a speck of fewer than `silhouette_min_solid_px` pixels (a deep shadow's compressed texture can look
-    smooth here and there)."""
+    road's colour breaks a vehicle into parts (a grey side over grey asphalt cuts the wheels off). A pixel darker
+    than the road that keeps its chromaticity (within `silhouette_doubt_max_chroma`) may be shadow the texture test
+    could not tell: it weighs `silhouette_doubt_weight` in the fit (dark paint of a colour weighs 1). Darker pixels
+    are solid where their texture is below `silhouette_smooth_ratio` of the road's there (darkened alike): a smooth
+    body face, unless they form a speck of fewer than `silhouette_min_solid_px` pixels (a deep shadow's compressed
+    texture can look smooth here and there)."""
     frame = roi_bgr.astype(np.float32)
     background = background_bgr.astype(np.float32)
     changed = np.abs(frame - background).max(axis=2) > params.silhouette_threshold

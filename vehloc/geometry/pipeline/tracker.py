@@ -198,7 +198,8 @@ class StoppedVehicleTracker:
         those lying at least `fragment_min_inside` inside where the track should be, joined when together they
         restore that box (IoU above `fragment_min_iou`, and above `box`'s own). A standing vehicle of the road's
         colour breaks into blobs (a grey body over grey asphalt keeps its windows and its lower edge apart), and its
-        box would jump between them; a vehicle passing close by fills no such gap so exactly and keeps its own track."""
+        box would jump between them. Off by default (`fragment_min_iou` 1): in dense traffic seen small, parts of
+        passing vehicles restored boxes too."""
         inside = [b for b in unmatched
                   if b.intersection(expected).area_px >= self.params.fragment_min_inside * b.area_px]
         if not inside:
