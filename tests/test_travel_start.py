@@ -204,7 +204,7 @@ def test_the_path_skips_the_frames_whose_edge_cuts_the_vehicle():
 class _EmptyForeground(_ScriptedExtractor):
     """Scripted boxes, and no vehicle pixels in any ROI: the key-point detectors find nothing."""
 
-    def foreground(self, roi: Box) -> Silhouette:
+    def foreground(self, roi: Box, body: Box | None = None) -> Silhouette:
         empty = np.zeros((roi.height_px, roi.width_px), bool)
         return Silhouette(empty, empty.astype(np.float32), empty, 0)
 
