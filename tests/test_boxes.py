@@ -47,3 +47,10 @@ def test_overlap_centre_and_border():
     assert Box(1, 1, 99, 99).touches_border(100, 100, margin_px=1)
     with pytest.raises(ValueError, match="lies outside the 40x30 image"):
         Box(50, 50, 60, 60).crop(np.zeros((30, 40)))
+
+
+def test_shifted_moves_into_a_crop_and_back():
+    box, crop = Box(30, 40, 90, 75), Box(20, 25, 200, 150)
+    inside = box.shifted(-crop.x0, -crop.y0)
+    assert inside == Box(10, 15, 70, 50) and inside.shifted(crop.x0, crop.y0) == box
+    assert inside.width_px == box.width_px and inside.height_px == box.height_px

@@ -70,6 +70,10 @@ class Box:
         """The overlap of two boxes (empty when they do not overlap)."""
         return Box(max(self.x0, other.x0), max(self.y0, other.y0), min(self.x1, other.x1), min(self.y1, other.y1))
 
+    def shifted(self, dx_px: int, dy_px: int) -> Box:
+        """The box moved by (dx_px, dy_px): from a crop's pixels to the image's, or back with the negatives."""
+        return Box(self.x0 + dx_px, self.y0 + dy_px, self.x1 + dx_px, self.y1 + dy_px)
+
     def union(self, other: Box) -> Box:
         """The smallest box holding both."""
         return Box(min(self.x0, other.x0), min(self.y0, other.y0), max(self.x1, other.x1), max(self.y1, other.y1))

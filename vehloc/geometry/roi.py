@@ -349,5 +349,5 @@ class VehicleRoiExtractor:
         if self.last_frame is None or self.background is None:
             raise RuntimeError("no frame has been applied yet")
         background = roi.crop(self.background).astype(np.uint8)
-        inside = None if body is None else Box(body.x0 - roi.x0, body.y0 - roi.y0, body.x1 - roi.x0, body.y1 - roi.y0)
+        inside = None if body is None else body.shifted(-roi.x0, -roi.y0)
         return vehicle_silhouette(roi.crop(self.last_frame), background, self.params, inside)

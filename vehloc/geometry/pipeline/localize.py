@@ -231,8 +231,7 @@ class Localizer:
         body = Box.tight(self.extractor.foreground(roi, box).trimmed())
         if body is None:
             return True
-        in_frame = Box(roi.x0 + body.x0, roi.y0 + body.y0, roi.x0 + body.x1, roi.y0 + body.y1)
-        return in_frame.touches_border(width_px, height_px, self.params.border_margin_px)
+        return body.shifted(roi.x0, roi.y0).touches_border(width_px, height_px, self.params.border_margin_px)
 
     def localize(self, track: VehicleTrack, frame_index: int, frame_bgr: np.ndarray) -> VehicleRecord:
         """The record of one tracked vehicle at this frame."""
