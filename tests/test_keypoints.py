@@ -22,6 +22,7 @@ from vehloc.geometry.keypoints import (
     plate_width_heading_deg,
     plate_widths_mm,
 )
+from vehloc.geometry.placement import between_axles, direction_of, facing, place_on_side
 from vehloc.geometry.plate import Plate, PlateParams
 from vehloc.geometry.camera_calibration import CameraCalibration
 
@@ -139,3 +140,31 @@ def test_a_heading_agreement_out_of_range_is_named_before_any_work() -> None:
     groups["plate"] |= {"heading_agreement_deg": 5.0, "width_range_mm": [530.0, 300.0]}
     with pytest.raises(ConfigError, match=r"plate\.width_range_mm\[1\]: must be >= 530, got 300.0"):
         DetectorParams.from_mapping(groups)
+
+
+def test_a_shapes_axles_middle_is_its_tyres_and_a_cuboids_is_its_own() -> None:
+    """The axles' middle along the car is the mean of the tyres' x-middles (the parts standing on the road): for every
+    catalog model exactly its axles' (a Toyota Hilux's 222.5 mm ahead of its footprint's centre, a Volvo C30's 67 mm
+    behind); a cuboid, with no tyres apart from its body, has it at its centre (the paper's assumption)."""
+    from vehloc.synth.body import catalog_shapes
+    from vehloc.synth.catalog import CATALOG
+
+    shapes = catalog_shapes()
+    for model in CATALOG:
+        expected_mm = (model.front_axle_x_mm + model.rear_axle_x_mm) / 2
+        assert shapes[model.model_id].axle_middle_x_mm == pytest.approx(expected_mm, abs=1e-9)
+    assert {m.model: round(shapes[m.model_id].axle_middle_x_mm, 1) for m in CATALOG}["Hilux"] == 222.5
+    assert VehicleShape.cuboid(4500.0, 1800.0, 1450.0).axle_middle_x_mm == 0.0
+
+
+@pytest.mark.parametrize("heading_deg", [0.0, 35.0, -120.0])
+def test_a_wheel_placement_moved_between_the_axles_puts_their_middle_on_q(heading_deg: float) -> None:
+    """A box placed with its side's middle on Q and moved by the axles' middle (200 mm ahead): the point of its near
+    side at the axles' middle is Q again to 1e-9 mm, its heading and size unchanged."""
+    q_mm, inward_dir = np.array([1000.0, 20000.0]), direction_of(heading_deg - 90.0)
+    box = place_on_side(q_mm, inward_dir, 5000.0, 1900.0)
+    box = facing(box, heading_deg)
+    moved = between_axles(box, 200.0)
+    near_side_at_axles = moved.centre_mm + moved.forward * 200.0 - inward_dir * moved.width_mm / 2
+    assert np.allclose(near_side_at_axles, q_mm, atol=1e-9)
+    assert (moved.heading_deg, moved.length_mm, moved.width_mm) == (box.heading_deg, box.length_mm, box.width_mm)

@@ -21,6 +21,8 @@ from vehloc.data.text import read_json
 from vehloc.errors import DataError
 
 FORMAT = "vehloc vehicle shapes 1"
+ON_ROAD_MM = 1.0
+"""A part whose lowest point is this close to the road stands on it (a tyre)."""
 SHAPES_FILE = "misc/vehicle_shapes.json"
 """Where a CompCars-format root keeps its models' shapes (vehloc's addition to the layout; optional)."""
 
@@ -41,6 +43,16 @@ class VehicleShape:
     def points_mm(self) -> np.ndarray:
         """All the parts' points, (M, 3)."""
         return np.concatenate(self.parts)
+
+    @cached_property
+    def axle_middle_x_mm(self) -> float:
+        """Where the middle between the axles lies along the car (x, mm): the mean of the x-middles of the parts
+        that stand on the road (the tyres; within `ON_ROAD_MM` of it). A cuboid's one part gives 0: the axles'
+        middle at the side's, as the paper's wheel placement assumes."""
+        standing = [part for part in self.parts if part[:, 2].min() <= ON_ROAD_MM]
+        if not standing:
+            return 0.0
+        return float(np.mean([(part[:, 0].min() + part[:, 0].max()) / 2.0 for part in standing]))
 
     @cached_property
     def part_starts(self) -> np.ndarray:

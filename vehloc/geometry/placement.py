@@ -8,7 +8,7 @@ the box's near side, between its axles, to the key point Q_W and lays its short 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -91,6 +91,13 @@ def place_on_side(side_middle_mm: np.ndarray, inward: np.ndarray, length_mm: flo
     inward = unit(inward)
     centre = np.asarray(side_middle_mm, dtype=float) + inward * width_mm / 2
     return VehicleBox(centre, heading_of(np.array([-inward[1], inward[0]])), length_mm, width_mm)
+
+
+def between_axles(box: VehicleBox, axle_middle_x_mm: float) -> VehicleBox:
+    """A wheel placement's box (its side's middle on the key point Q, its front known) moved along its length so
+    that the middle between its axles lies on Q instead: its centre `axle_middle_x_mm` behind where it was (the
+    axles' middle that far ahead of the box's)."""
+    return replace(box, centre_mm=np.asarray(box.centre_mm, dtype=float) - box.forward * axle_middle_x_mm)
 
 
 def facing(box: VehicleBox, heading_deg: float) -> VehicleBox:

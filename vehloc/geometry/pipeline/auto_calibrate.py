@@ -165,7 +165,7 @@ def collect_traffic(video: str | Path, params: AutoCalibrationParams, settings: 
     info = video_frames.info
     total = video_frames.frames_to_read(params.max_frames or None)
     extractor = VehicleRoiExtractor(settings.roi)
-    tracker = StoppedVehicleTracker(settings.pipeline.vote_frames, settings.tracker, "largest")
+    tracker = StoppedVehicleTracker(settings.pipeline.vote_frames, settings.tracker, "largest", 1.0 / settings.roi.scale)
     features = FeatureTracks(params.features)
     edges: list[Segments] = []
     finished: list[VehicleTrack] = []
@@ -176,7 +176,7 @@ def collect_traffic(video: str | Path, params: AutoCalibrationParams, settings: 
         if total is not None and index >= total:
             break
         frames += 1
-        update = tracker.update(extractor.apply(frame), index, frame.shape[0])
+        update = tracker.update(extractor.apply(frame), index, (frame.shape[1], frame.shape[0]))
         finished.extend(update.removed)
         outline_due = index % params.outline_every_frames == 0
         for track in update.seen:

@@ -23,12 +23,13 @@ from enum import StrEnum
 import numpy as np
 
 from vehloc.data.boxes import Box
+from vehloc.data.shapes import VehicleShape
 from vehloc.data.specs import VehicleSpec
 from vehloc.errors import VehlocError
-from vehloc.geometry.keypoints import paper_placement
+from vehloc.geometry.keypoints import Placement, paper_placement
 from vehloc.geometry.model_fit import best_start, fit_model
 from vehloc.geometry.motion import PathHeading
-from vehloc.geometry.placement import VehicleBox, direction_of, facing
+from vehloc.geometry.placement import VehicleBox, between_axles, direction_of, facing
 from vehloc.geometry.outcome import NotPlaced, ReasonCode
 from vehloc.geometry.roi import VehicleRoiExtractor
 from vehloc.geometry.silhouette_start import silhouette_start_headings_deg
@@ -151,7 +152,8 @@ class Localizer:
         settings = settings or LocalizeSettings.compose()
         self.params = settings.pipeline
         self.extractor = VehicleRoiExtractor(settings.roi)
-        self.tracker = StoppedVehicleTracker(self.params.vote_frames, settings.tracker, self.params.vote_policy)
+        self.tracker = StoppedVehicleTracker(self.params.vote_frames, settings.tracker, self.params.vote_policy,
+                                             1.0 / settings.roi.scale)
         self.detectors = settings.detectors
         self.fit_params = settings.fit
         self.speed_params = settings.speed
@@ -165,7 +167,7 @@ class Localizer:
         with self.clock.stage("background"):
             boxes = self.extractor.apply(frame_bgr)
         with self.clock.stage("tracking"):
-            update = self.tracker.update(boxes, frame_index, height_px)
+            update = self.tracker.update(boxes, frame_index, (width_px, height_px))
             self.removed = update.removed
             for track in update.seen:
                 cut = track.box.touches_border(width_px, height_px, self.params.border_margin_px)
@@ -278,7 +280,7 @@ class Localizer:
                                reason=joined(placement.message, poor_fit(fit)), notes="")
             return replace(record, notes=joined(f"fit from the {FIT_STARTS[fit.start]} ({placement.message})",
                                                 record.notes), estimates=(fit,))
-        paper_box = facing(placement.box, came) if came is not None else placement.box
+        paper_box = self._paper_box(placement, came, self.classifier.metadata.shape_of(spec.model_id))
         estimates = [Estimate("paper", paper_box, placement.kind, self._paper_uncertainty(paper_box, placement.kind,
                                                                                          probabilities, placement.baseline_mm))]
         if self.params.fit:
@@ -289,6 +291,16 @@ class Localizer:
             else:
                 record = replace(record, notes=joined(record.notes, poor_fit(fit)))
         return replace(record, estimates=tuple(estimates))
+
+    def _paper_box(self, placement: Placement, came_deg: float | None, shape: VehicleShape) -> VehicleBox:
+        """The paper's box, facing the way the vehicle came when its travel tells; from the wheels with the front
+        so known, moved to put the model's axles' middle on Q (`pipeline.wheels_at_axles`)."""
+        if came_deg is None:
+            return placement.box
+        box = facing(placement.box, came_deg)
+        if placement.kind == "wheels" and self.params.wheels_at_axles:
+            return between_axles(box, shape.axle_middle_x_mm)
+        return box
 
     def _calibration_part(self, box: VehicleBox, baseline_mm: float) -> tuple[float, float]:
         mm_per_px = road_mm_per_px(self.calibration.road_to_image, box.centre_mm)

@@ -41,6 +41,7 @@ class PipelineParams:
     max_motion_sigma_deg: float
     min_speed_sigmas: float
     min_fit_iou: float
+    wheels_at_axles: bool
 
     def __post_init__(self) -> None:
         check_choice("vote_policy", self.vote_policy, VOTE_POLICIES)

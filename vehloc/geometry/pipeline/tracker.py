@@ -134,25 +134,30 @@ class StoppedVehicleTracker:
     even when the car stands). A track missed in `max_lost_frames` frames in a row is removed; each new track keeps
     up to `vote_frames` crops for its vote, chosen by `vote_policy` (`TrackVotes`)."""
 
-    def __init__(self, vote_frames: int, params: TrackerParams | None = None, vote_policy: str = "spread") -> None:
+    def __init__(self, vote_frames: int, params: TrackerParams | None = None, vote_policy: str = "spread",
+                 box_step_px: float = 1.0) -> None:
+        """`box_step_px`: how finely the boxes' edges are placed, in frame pixels (one pixel of the background
+        model's shrunk frames, 1 / `roi.scale`): an edge moving smoothly strays from its smooth motion by up to half
+        of it, which is no flicker (see `is_still`)."""
         self.params = params or TrackerParams.from_config()
+        self.box_step_px = box_step_px
         self.vote_frames = vote_frames
         self.vote_policy = vote_policy
         self.tracks: list[VehicleTrack] = []
         self._next_id = 1
-        self.frame_height_px: int | None = None
+        self.frame_size_px: tuple[int, int] | None = None
 
     @property
     def started(self) -> int:
         """How many tracks were started so far (removed ones included)."""
         return self._next_id - 1
 
-    def update(self, boxes: list[Box], frame_index: int, frame_height_px: int | None = None) -> TrackerUpdate:
+    def update(self, boxes: list[Box], frame_index: int, frame_size_px: tuple[int, int] | None = None) -> TrackerUpdate:
         """Associate this frame's boxes with the tracks (each track's box where its motion takes it), share a box
         among the tracks it covers, start a track for each box left over, and remove the tracks missed in the last
-        `max_lost_frames` frames (or shared for more than `max_shared_frames`). With the frame's height, a box's top
-        or bottom held at the frame's edge is never taken as the steady one (see `is_still`)."""
-        self.frame_height_px = frame_height_px
+        `max_lost_frames` frames (or shared for more than `max_shared_frames`). With the frame's size (width, height),
+        a box's side held at the frame's edge is never taken as the steady one (see `is_still`)."""
+        self.frame_size_px = frame_size_px
         expected = {t.track_id: t.predicted_box(frame_index, self.params.motion_frames) for t in self.tracks}
         unmatched, sharing = self.still_shared(list(boxes))
         for track in sorted(self.tracks, key=lambda t: -t.box.area_px):
@@ -271,28 +276,38 @@ class StoppedVehicleTracker:
 
     def is_still(self, track: VehicleTrack) -> bool:
         """Whether the track's box stayed put over its last `stop_frames` frames, seen one after another: its middle
-        within `stop_tolerance_fraction` of its diagonal of where it is now. Where its top or its bottom flickers
-        (strays from a smooth motion by more than half that: a standing car's shadow comes and goes from the
-        foreground, a grey roof fades into the road) and the other does not, the middle is taken at the other's height,
-        unless that one lies on the frame's edge (a vehicle coming in over it: the edge holds the box still)."""
+        within `stop_tolerance_fraction` of its diagonal of where it is now. Where one of its two sides across an axis
+        flickers (strays from a smooth motion by more than half that, and more than half a step of the boxes' edges,
+        which a smooth motion strays by on their grid: a standing car's shadow comes and goes from the foreground, a
+        grey roof or flank fades into the road) and the other does not, the middle along that axis is
+        taken at the other side, unless that one lies on the frame's edge (a vehicle coming in over it: the edge holds
+        the box still)."""
         n = self.params.stop_frames
         if len(track.boxes) < n or track.frames[-1] - track.frames[-n] != n - 1:
             return False
         edges = np.array([[b.x0, b.y0, b.x1, b.y1] for b in track.boxes[-n:]], dtype=float)
         shifts = edges - edges[-1]
         tolerance_px = self.params.stop_tolerance_fraction * np.hypot(track.box.width_px, track.box.height_px)
-        flicker = flicker_px(shifts[:, [1, 3]]) > tolerance_px / 2.0
-        y_shift = (shifts[:, 1] + shifts[:, 3]) / 2.0
-        if flicker[0] != flicker[1] and not self.held_by_edge(edges[:, 3] if flicker[0] else edges[:, 1]):
-            y_shift = shifts[:, 3] if flicker[0] else shifts[:, 1]
-        moved = np.hypot((shifts[:, 0] + shifts[:, 2]) / 2.0, y_shift)
-        return float(np.max(moved)) <= tolerance_px
+        flicker_tolerance_px = max(tolerance_px, self.box_step_px) / 2.0
+        width_px, height_px = self.frame_size_px or (None, None)
+        x_shift = steady_middle_shift(edges[:, [0, 2]], shifts[:, [0, 2]], flicker_tolerance_px, width_px)
+        y_shift = steady_middle_shift(edges[:, [1, 3]], shifts[:, [1, 3]], flicker_tolerance_px, height_px)
+        return float(np.max(np.hypot(x_shift, y_shift))) <= tolerance_px
 
-    def held_by_edge(self, values_px: np.ndarray) -> bool:
-        """Whether a box's top or bottom (over frames) touches the frame's top or bottom edge in any of them."""
-        if self.frame_height_px is None:
-            return False
-        return bool(np.any(values_px <= 0) or np.any(values_px >= self.frame_height_px))
+
+def steady_middle_shift(edges_px: np.ndarray, shifts_px: np.ndarray, flicker_tolerance_px: float,
+                        frame_extent_px: int | None) -> np.ndarray:
+    """A box's middle's shift along one axis over frames, from its two sides' positions and shifts (frames x 2): the
+    mean of the two, or the steady side's shift where the other flickers (strays from its smooth motion by more than
+    `flicker_tolerance_px`) and the steady one does not touch the frame's edge (0 or `frame_extent_px`, when known)."""
+    flicker = flicker_px(shifts_px) > flicker_tolerance_px
+    if flicker[0] != flicker[1]:
+        steady = 1 if flicker[0] else 0
+        held = frame_extent_px is not None and bool(
+            np.any(edges_px[:, steady] <= 0) or np.any(edges_px[:, steady] >= frame_extent_px))
+        if not held:
+            return shifts_px[:, steady]
+    return shifts_px.mean(axis=1)
 
 
 def flicker_px(series: np.ndarray) -> np.ndarray:
