@@ -127,41 +127,20 @@ def test_a_standing_car_whose_shadow_flickers_under_it_is_still() -> None:
     assert _stop_frame(flicker_top) == 9
 
 
-def test_a_standing_car_whose_side_flickers_is_still() -> None:
-    """A small car standing (70 x 42 px, diagonal 82 px: 1.6 px of tolerance) whose left side jumps 4 px as a flank of
-    the road's grey comes and goes from the foreground (its centre 2 px): still once ten frames have been seen, the
-    middle taken at its steady right side; with its right side flickering instead, too."""
-    flicker_left = [Box(600 - 4 * (f % 2), 300, 670, 342) for f in range(20)]
-    assert _stop_frame(flicker_left) == 9
-    flicker_right = [Box(600, 300, 670 + 4 * (f % 3 == 0), 342) for f in range(20)]
-    assert _stop_frame(flicker_right) == 9
-
-
-def test_a_car_entering_at_the_left_edge_with_a_ragged_side_is_not_still() -> None:
-    """A car coming in over the frame's left edge (its left side held at 0, its right side stepping on raggedly by
-    4 px back and forth against a 1.6 px tolerance): the left side is the steady one only without the frame's size;
-    with it, never still."""
-    entering = [Box(0, 300, 40 + 3 * f + 4 * (f % 2), 342) for f in range(30)]
-    t = StoppedVehicleTracker(vote_frames=4, params=TrackerParams.from_config(stop_frames=10,
-                                                                              stop_tolerance_fraction=0.02))
-    assert not any(t.update([box], frame, frame_size_px=(1280, 720)).stopped for frame, box in enumerate(entering))
-    assert _stop_frame(entering) is not None
-
-
-def test_a_side_moving_smoothly_on_the_boxes_grid_is_no_flicker() -> None:
-    """A car's left side drifting 0.6 px a frame, its boxes on the 2 px grid of a background model run at half size
-    (steps of 2 px every three or four frames), its right side pinned (a car in front hides it): with the grid's step
-    given the left side's steps are a smooth motion, the middle moves 3 px over ten frames against 1.6 px of
-    tolerance, and it is never still; taken for 1 px boxes, the steps look like a flicker and the pinned side is
-    taken for the steady one."""
-    drifting = [Box(600 - 2 * int(round(0.3 * f)), 300, 670, 342) for f in range(30)]
+def test_an_edge_moving_smoothly_on_the_boxes_grid_is_no_flicker() -> None:
+    """A car's bottom coming down 0.6 px a frame, its boxes on the 2 px grid of a background model run at half size
+    (steps of 2 px every three or four frames), its top held (a grey roof fading into the road): with the grid's step
+    given the bottom's steps are a smooth motion, the middle moves 3 px over ten frames against 1.6 px of tolerance,
+    and it is never still; taken for 1 px boxes, the steps look like a flicker and the held top is taken for the
+    steady one."""
+    coming = [Box(600, 300, 670, 342 + 2 * int(round(0.3 * f))) for f in range(30)]
 
     def stops(box_step_px: float) -> list[int]:
         t = StoppedVehicleTracker(4, TrackerParams.from_config(stop_frames=10, stop_tolerance_fraction=0.02),
                                   "spread", box_step_px)
-        return [frame for frame, box in enumerate(drifting) if t.update([box], frame).stopped]
+        return [frame for frame, box in enumerate(coming) if t.update([box], frame).stopped]
 
-    assert stops(2.0) == [] and stops(1.0) == [10]
+    assert stops(2.0) == [] and stops(1.0) != []
 
 
 def test_a_moving_car_is_not_still() -> None:
@@ -198,17 +177,14 @@ def test_a_standing_car_whose_blob_breaks_in_two_keeps_one_track_and_is_still() 
     upper part and its lower edge (dev seed 139 of the localization benchmark): the lower part lies inside where the
     track should be and joining it brings the box back to the whole car, so the one track keeps the whole box and
     is still after ten frames (`fragment_min_iou` 0.9); with fragments never joined (the default, 1) the box jumps
-    between the whole car and its upper part and a second track starts; the box's top and left side stay put, so it
-    is still too, its record made on its upper part's box."""
+    between the whole car and its upper part, a second track starts, and it is never still."""
     whole, upper, lower = Box(786, 420, 1028, 694), Box(786, 420, 998, 584), Box(848, 586, 1028, 694)
     frames = [[whole] if f % 2 == 0 else [upper, lower] for f in range(20)]
     joined = StoppedVehicleTracker(4, TrackerParams.from_config(stop_frames=10, fragment_min_iou=0.9))
     stops = [bool(joined.update(boxes, f).stopped) for f, boxes in enumerate(frames)]
     assert stops.index(True) == 9 and joined.started == 1 and joined.tracks[0].boxes == [whole] * 20
     apart = StoppedVehicleTracker(4, TrackerParams.from_config(stop_frames=10))
-    stops = [bool(apart.update(boxes, f).stopped) for f, boxes in enumerate(frames)]
-    assert apart.started == 2 and apart.tracks[0].boxes[-2:] == [whole, upper]
-    assert stops.index(True) == 9 and apart.tracks[0].boxes[9] == upper  # still at its steady top and left side
+    assert not any(apart.update(boxes, f).stopped for f, boxes in enumerate(frames)) and apart.started == 2
 
 
 def test_a_small_car_inside_a_whole_tracked_cars_box_is_not_taken_as_its_fragment() -> None:
