@@ -168,7 +168,7 @@ def test_a_car_entering_at_the_bottom_edge_with_a_ragged_top_is_not_still() -> N
     entering = [Box(520, int(560 - 0.08 * (f + 20) ** 2) + 8 * (f % 2), 760, 720) for f in range(30)]
     t = StoppedVehicleTracker(vote_frames=4, params=TrackerParams.from_config(stop_frames=10,
                                                                               stop_tolerance_fraction=0.02))
-    assert not any(t.update([box], frame, frame_size_px=(1280, 720)).stopped for frame, box in enumerate(entering))
+    assert not any(t.update([box], frame, frame_height_px=720).stopped for frame, box in enumerate(entering))
     assert _stop_frame(entering) is not None
 
 

@@ -176,7 +176,7 @@ def collect_traffic(video: str | Path, params: AutoCalibrationParams, settings: 
         if total is not None and index >= total:
             break
         frames += 1
-        update = tracker.update(extractor.apply(frame), index, (frame.shape[1], frame.shape[0]))
+        update = tracker.update(extractor.apply(frame), index, frame.shape[0])
         finished.extend(update.removed)
         outline_due = index % params.outline_every_frames == 0
         for track in update.seen:

@@ -167,7 +167,7 @@ class Localizer:
         with self.clock.stage("background"):
             boxes = self.extractor.apply(frame_bgr)
         with self.clock.stage("tracking"):
-            update = self.tracker.update(boxes, frame_index, (width_px, height_px))
+            update = self.tracker.update(boxes, frame_index, height_px)
             self.removed = update.removed
             for track in update.seen:
                 cut = track.box.touches_border(width_px, height_px, self.params.border_margin_px)
@@ -259,11 +259,11 @@ class Localizer:
         came, motion, unclear = went.came_heading_deg, went.motion, went.unclear
         if motion is not None:
             record = replace(record, notes=f"heading from the track's path (sigma {motion.sigma_deg:.1f} deg)")
+        shape = self.classifier.metadata.shape_of(spec.model_id)
         with self.clock.stage("key points"):
             silhouette = self.extractor.foreground(roi, box)
-            placement = paper_placement(roi.crop(frame_bgr), silhouette, roi, self.calibration, spec,
-                                        self.classifier.metadata.shape_of(spec.model_id), self.detectors,
-                                        went.visible_end)
+            placement = paper_placement(roi.crop(frame_bgr), silhouette, roi, self.calibration, spec, shape,
+                                        self.detectors, went.visible_end)
         if isinstance(placement, NotPlaced):
             if unclear is not None:
                 return replace(record, status=Status.NOT_LOCALIZED, reason_code=unclear.code,
@@ -280,7 +280,7 @@ class Localizer:
                                reason=joined(placement.message, poor_fit(fit)), notes="")
             return replace(record, notes=joined(f"fit from the {FIT_STARTS[fit.start]} ({placement.message})",
                                                 record.notes), estimates=(fit,))
-        paper_box = self._paper_box(placement, came, self.classifier.metadata.shape_of(spec.model_id))
+        paper_box = self._paper_box(placement, came, shape)
         estimates = [Estimate("paper", paper_box, placement.kind, self._paper_uncertainty(paper_box, placement.kind,
                                                                                          probabilities, placement.baseline_mm))]
         if self.params.fit:

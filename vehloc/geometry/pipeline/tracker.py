@@ -145,19 +145,19 @@ class StoppedVehicleTracker:
         self.vote_policy = vote_policy
         self.tracks: list[VehicleTrack] = []
         self._next_id = 1
-        self.frame_size_px: tuple[int, int] | None = None
+        self.frame_height_px: int | None = None
 
     @property
     def started(self) -> int:
         """How many tracks were started so far (removed ones included)."""
         return self._next_id - 1
 
-    def update(self, boxes: list[Box], frame_index: int, frame_size_px: tuple[int, int] | None = None) -> TrackerUpdate:
+    def update(self, boxes: list[Box], frame_index: int, frame_height_px: int | None = None) -> TrackerUpdate:
         """Associate this frame's boxes with the tracks (each track's box where its motion takes it), share a box
         among the tracks it covers, start a track for each box left over, and remove the tracks missed in the last
-        `max_lost_frames` frames (or shared for more than `max_shared_frames`). With the frame's size (width, height),
-        a box's side held at the frame's edge is never taken as the steady one (see `is_still`)."""
-        self.frame_size_px = frame_size_px
+        `max_lost_frames` frames (or shared for more than `max_shared_frames`). With the frame's height, a box's top
+        or bottom held at the frame's edge is never taken as the steady one (see `is_still`)."""
+        self.frame_height_px = frame_height_px
         expected = {t.track_id: t.predicted_box(frame_index, self.params.motion_frames) for t in self.tracks}
         unmatched, sharing = self.still_shared(list(boxes))
         for track in sorted(self.tracks, key=lambda t: -t.box.area_px):
@@ -290,9 +290,8 @@ class StoppedVehicleTracker:
         shifts = edges - edges[-1]
         tolerance_px = self.params.stop_tolerance_fraction * np.hypot(track.box.width_px, track.box.height_px)
         flicker_tolerance_px = max(tolerance_px, self.box_step_px) / 2.0
-        height_px = self.frame_size_px[1] if self.frame_size_px else None
         x_shift = shifts[:, [0, 2]].mean(axis=1)
-        y_shift = steady_middle_shift(edges[:, [1, 3]], shifts[:, [1, 3]], flicker_tolerance_px, height_px)
+        y_shift = steady_middle_shift(edges[:, [1, 3]], shifts[:, [1, 3]], flicker_tolerance_px, self.frame_height_px)
         return float(np.max(np.hypot(x_shift, y_shift))) <= tolerance_px
 
 
