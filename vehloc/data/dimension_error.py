@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from vehloc.data.specs import DIMENSION_NAMES
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 
 @dataclass(frozen=True)
@@ -18,6 +21,8 @@ class DimensionErrors:
     rel_pct: np.ndarray
 
     def to_frame(self) -> pd.DataFrame:
+        import pandas as pd  # imported on use: a CLI checks its input before loading pandas
+
         columns = {f"{d}_err_mm": self.abs_mm[:, i] for i, d in enumerate(DIMENSION_NAMES)}
         columns |= {f"{d}_err_pct": self.rel_pct[:, i] for i, d in enumerate(DIMENSION_NAMES)}
         return pd.DataFrame(columns)

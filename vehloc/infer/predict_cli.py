@@ -7,8 +7,7 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
-
-import pandas as pd
+from typing import TYPE_CHECKING
 
 from vehloc.atomic import check_output_file, write_text
 from vehloc.config import ArgumentParser, integer_argument
@@ -17,6 +16,9 @@ from vehloc.data.compcars import parse_label
 from vehloc.data.text import read_text
 from vehloc.errors import DataError, exit_on_error
 from vehloc.infer.classifier import VehicleClassifier
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 
 def label_path_of(image_path: Path) -> Path:
@@ -44,6 +46,8 @@ def prediction_table(
 ) -> pd.DataFrame:
     """One row per image and rank: model id, make, model, probability, and the image's dimension estimates.
     With `compcars_labels` each image is classified in the box of its label file (enlarged as in training)."""
+    import pandas as pd  # imported on use: a CLI checks its input before loading pandas
+
     boxes = [label_box(image) for image in images] if compcars_labels else None
     rows = []
     for image, prediction in zip(images, model.predict(images, top_k=top_k, boxes=boxes)):

@@ -7,15 +7,18 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
-import pandas as pd
 
 from vehloc.atomic import atomic_paths, encode_image
 from vehloc.geometry.pipeline.auto_calibrate import AutoCalibration
 from vehloc.geometry.pipeline.overlay import SCALE, SHIFT, draw_grid
 from vehloc.geometry.vanishing import Segments
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 DRAWN_SEGMENTS = 40
 VP1_BGR, VP2_BGR = (0, 200, 0), (255, 0, 255)
@@ -68,6 +71,8 @@ def draw_auto_calibration(background_bgr: np.ndarray, result: AutoCalibration, g
 def vehicles_table(result: AutoCalibration) -> pd.DataFrame:
     """One row per vehicle that scaled the camera: its track, model, views, camera height and what it says of the
     scale against the combined one."""
+    import pandas as pd  # imported on use: a CLI checks its input before loading pandas
+
     return pd.DataFrame([{
         "track_id": v.track_id, "model": v.model, "model_id": v.model_id, "heading_deg": v.heading_deg,
         "views": v.views, "camera_height_mm": v.height_mm, "size_doubt": v.size_doubt,

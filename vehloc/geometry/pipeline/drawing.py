@@ -7,7 +7,6 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from matplotlib.figure import Figure
 
 from vehloc.atomic import atomic_path
 from vehloc.geometry.camera import PinholeCamera
@@ -49,6 +48,8 @@ def draw_footprint(image: np.ndarray, road_to_image: ProjectiveTransform, box: V
 def write_birds_eye(path: Path, boxes: dict[str, VehicleBox], title: str, tyres_mm: np.ndarray | None = None) -> Path:
     """A bird's-eye PNG of footprints (keys `truth`, `paper`, `fit`) on the road, X to the right and Y up,
     with the tyre positions the truth comes from."""
+    from matplotlib.figure import Figure  # imported on use: a CLI checks its input before loading matplotlib
+
     fig = Figure(figsize=(5.5, 5.0))
     ax = fig.subplots()
     for name, box in boxes.items():

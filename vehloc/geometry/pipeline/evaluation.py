@@ -6,9 +6,9 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from vehloc.atomic import write_text
 from vehloc.data.specs import display_name
@@ -26,6 +26,9 @@ from vehloc.geometry.pipeline.table2 import (
 )
 from vehloc.geometry.truth import CarTruth, SceneTruth
 from vehloc.tables import markdown_table
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 MIN_MATCH_IOU = 0.5
 METHODS = ("paper", "fit")
@@ -85,6 +88,8 @@ def summary(frame: pd.DataFrame) -> pd.DataFrame:
     """Per method over the correctly classified cases: the worst and mean position % and heading error, the
     worst combined with the paper's 2.5 % dimension error, and how many cases are within the paper's
     figures."""
+    import pandas as pd  # imported on use: a CLI checks its input before loading pandas
+
     rows = []
     if "method" not in frame.columns:
         return pd.DataFrame(rows)

@@ -7,18 +7,19 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 import yaml
 from hydra.experimental.callback import Callback
-from matplotlib.figure import Figure
 
 from vehloc.atomic import atomic_path, write_text
 from vehloc.errors import running_prog
 from vehloc.multirun import JobFolder, job_folders, report_failed_jobs
 from vehloc.tables import markdown_table
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 VIDEOS_STEM = "multirun_videos"
 VEHICLES_FILE = "multirun_vehicles.csv"
@@ -40,6 +41,8 @@ def _job_video(job: JobFolder) -> str:
 
 
 def _job_rows(job: JobFolder) -> tuple[dict[str, object], pd.DataFrame]:
+    import pandas as pd  # imported on use: every vehloc-localize run loads this callback
+
     row: dict[str, object] = {"job": job.number, "video": _job_video(job), "status": "failed" if job.error else "done",
                               "reason": job.error or "", "records": 0, "localized": 0, "vehicles": 0,
                               "speeds_measured": 0, "median_speed_kmh": np.nan}
@@ -63,6 +66,8 @@ def _job_rows(job: JobFolder) -> tuple[dict[str, object], pd.DataFrame]:
 
 def merge_localize_jobs(sweep_dir: Path) -> MultirunTables:
     """The tables of the jobs under `sweep_dir` (see the module docstring)."""
+    import pandas as pd  # imported on use: every vehloc-localize run loads this callback
+
     rows, vehicles = [], []
     for job in job_folders(sweep_dir):
         row, tracks = _job_rows(job)
@@ -89,6 +94,8 @@ def write_multirun_tables(tables: MultirunTables, sweep_dir: Path) -> list[Path]
 
 def _write_png(tables: MultirunTables, path: Path) -> Path:
     """Per video: its vehicles' speeds (dots) over bars of its vehicle count; failed videos marked."""
+    from matplotlib.figure import Figure  # imported on use: every vehloc-localize run loads this callback
+
     videos = tables.videos
     fig = Figure(figsize=(max(6.0, 1.2 * len(videos) + 3.0), 4.5))
     counts_ax = fig.subplots()

@@ -7,7 +7,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from vehloc.atomic import write_bytes, write_image, write_text
 from vehloc.geometry.brno import BrnoCalibration, brno_calibration
@@ -130,6 +129,8 @@ def write_speed_files(vehicles: list[VehicleSpeed], calibration: CameraCalibrati
     """Write the vehicles' files into `out_dir` (the frames with their speeds drawn, read again from `video`, with
     `overlays`); a line saying what was written (and why the results file was not, where the camera cannot be written
     in the benchmark's model)."""
+    import pandas as pd  # imported on use: a CLI checks its input before loading pandas
+
     write_text(out_dir / "tracks.csv", pd.DataFrame([v.row() for v in vehicles]).to_csv(index=False, float_format="%.3f"))
     rows = [row for v in vehicles for row in v.trajectory_rows()]
     columns = ["track_id", "frame", "time_s", "x_mm", "y_mm", "x_px", "y_px", "used"]

@@ -6,12 +6,15 @@ from __future__ import annotations
 
 import io
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from vehloc.atomic import write_bytes, write_text
 from vehloc.geometry.pipeline.speed_eval import SpeedScore
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 PUBLISHED = (
     ("Kocur and Ftáčnik 2020 (BrnoCompSpeed split C)", 0.75, 0.58),
@@ -22,6 +25,8 @@ PUBLISHED = (
 
 
 def matches_table(score: SpeedScore) -> pd.DataFrame:
+    import pandas as pd  # imported on use: a CLI checks its input before loading pandas
+
     return pd.DataFrame([{"truth_id": m.truth_id, "lane": m.lane, "valid": m.valid, "last_time_s": m.last_time_s,
                           "true_speed_kmh": m.true_speed_kmh, "car_id": m.car_id, "speed_kmh": m.speed_kmh,
                           "error_kmh": m.error_kmh} for m in score.matches])
@@ -72,6 +77,8 @@ def score_plot(score: SpeedScore, title: str) -> bytes:
 
 def write_score(score: SpeedScore, out_dir: Path, title: str) -> dict[str, float]:
     """Write the score's files into `out_dir`; its summary."""
+    import pandas as pd  # imported on use: a CLI checks its input before loading pandas
+
     summary = score.summary()
     write_text(out_dir / "matches.csv", matches_table(score).to_csv(index=False, float_format="%.3f"))
     write_text(out_dir / "speed_eval.csv", pd.DataFrame([summary]).to_csv(index=False, float_format="%.4f"))

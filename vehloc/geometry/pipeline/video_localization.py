@@ -7,10 +7,10 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
-import pandas as pd
 from tqdm import tqdm
 
 from vehloc.atomic import write_image, write_text
@@ -22,6 +22,9 @@ from vehloc.geometry.pipeline.model_choice import choose_models
 from vehloc.geometry.pipeline.track_speed import TrackSpeeds, VehicleSpeed, assign_lanes
 from vehloc.geometry.truth import SceneTruth
 from vehloc.geometry.pipeline.video import VideoFrames
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 
 @dataclass(frozen=True)
@@ -67,6 +70,8 @@ def localize_video(localizer: Localizer, video: str | Path, out_dir: Path, truth
     picture per localized vehicle with `pictures`; Table 2 and its bird's-eye figures with `truth`. The speeds are
     at `fps` frames a second where given (a video whose container states another rate than it was filmed at), else
     at the container's rate."""
+    import pandas as pd  # imported on use: a CLI checks its input before loading pandas
+
     video_frames = VideoFrames(video)
     info = video_frames.info
     if fps is not None:
