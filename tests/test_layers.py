@@ -140,6 +140,25 @@ def test_deployment_packages_import_without_torch():
     assert run.stdout.strip() == ""
 
 
+CLI_MODULES = ["vehloc.geometry.pipeline.localize_cli", "vehloc.geometry.pipeline.calibrate_cli",
+               "vehloc.geometry.pipeline.speed_eval_cli", "vehloc.infer.predict_cli",
+               "vehloc.geometry.pipeline.multirun_table"]  # the last: the callback every vehloc-localize run loads
+
+
+def test_the_deployment_clis_load_no_table_or_plot_library_before_their_work():
+    """Importing the deployment CLIs (and the multirun callback Hydra instantiates on every `vehloc-localize`
+    run) loads neither pandas nor matplotlib: they are imported where tables and figures are made, so bad input
+    is refused in about a second less."""
+    code = (
+        "import importlib, sys\n"
+        f"for name in {CLI_MODULES!r}:\n    importlib.import_module(name)\n"
+        "print(','.join(m for m in ('pandas', 'matplotlib') if m in sys.modules))\n"
+    )
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip() == ""
+
+
 def test_every_package_states_its_api():
     """Each package's `__init__` names its API in `__all__`, every name of which it really exports."""
     packages = sorted(module_name(path, PACKAGE) for path in PACKAGE.rglob("__init__.py"))
