@@ -130,3 +130,25 @@ def test_a_vehicle_broken_by_a_band_of_the_roads_look_keeps_both_parts_inside_it
     off = vehicle_silhouette(frame, background, RoiParams.from_config(silhouette_min_part_fraction=1.0),
                              Box(28, 18, 92, 68)).mask
     assert not off[57:64, 38:82].any()
+
+
+def test_a_grainy_dark_band_at_the_outline_weighs_as_shade_and_one_enclosed_by_the_body_does_not(
+        scene: tuple[np.ndarray, np.ndarray]) -> None:
+    """With `silhouette_shade_weight` below the doubt weight: the grainy band below the face reaches the
+    silhouette's outline, likely the shadow next to the vehicle, and weighs the shade weight in the fit; the smooth
+    face keeps the doubt weight. The same grain enclosed by a white body (a window with the light mottled on it) is
+    the vehicle's inside: the doubt weight."""
+    frame, background = scene
+    params = RoiParams.from_config(silhouette_shade_weight=0.25)
+    weights = vehicle_silhouette(frame, background, params).weights
+    face = (slice(FACE_ROWS[0] + 4, FACE_ROWS[1] - 4), slice(FACE_COLUMNS[0] + 4, FACE_COLUMNS[1] - 4))
+    band = (slice(SHADOW_ROWS[0] + 4, SHADOW_ROWS[1] - 4), slice(FACE_COLUMNS[0] + 4, FACE_COLUMNS[1] - 4))
+    assert (weights[face] == params.silhouette_doubt_weight).all()
+    assert np.mean(weights[band] == params.silhouette_shade_weight) > 0.9
+    enclosed = background.copy()
+    enclosed[10:90, 20:100] = 235
+    enclosed[35:65, 40:80] = _road((30, 40), seed=2) // 2
+    weights = vehicle_silhouette(enclosed, background, params).weights
+    window = (slice(39, 61), slice(44, 76))
+    assert not (weights[window] == params.silhouette_shade_weight).any()
+    assert np.mean(weights[window] == params.silhouette_doubt_weight) > 0.9

@@ -55,6 +55,7 @@ class RoiParams:
     silhouette_doubt_max_chroma: float
     silhouette_close_px: int
     silhouette_doubt_weight: float
+    silhouette_shade_weight: float
     silhouette_smooth_ratio: float
     silhouette_min_solid_px: int
     silhouette_min_part_fraction: float
@@ -80,6 +81,7 @@ class RoiParams:
         check_range("silhouette_covered_erode_px", self.silhouette_covered_erode_px, 0, MAX_KERNEL_PX)
         check_range("silhouette_doubt_max_chroma", self.silhouette_doubt_max_chroma, 0.0, 1.0)
         check_range("silhouette_doubt_weight", self.silhouette_doubt_weight, 0.0, 1.0)
+        check_range("silhouette_shade_weight", self.silhouette_shade_weight, 0.0, 1.0)
         check_range("silhouette_smooth_ratio", self.silhouette_smooth_ratio, 0.0)
         check_range("min_changed_fraction", self.min_changed_fraction, 0.0, 1.0)
         check_range("silhouette_min_part_fraction", self.silhouette_min_part_fraction, 0.0, 1.0)
@@ -161,7 +163,8 @@ def clean_mask(mask: np.ndarray, params: RoiParams) -> np.ndarray:
 @dataclass(frozen=True, eq=False)
 class Silhouette:
     """A vehicle's pixels in an ROI (bool mask), how sure each is (1, or `silhouette_doubt_weight` where the
-    pixel is only darker than the road, of its chromaticity, and may be shadow the texture test could not tell), and which are
+    pixel is only darker than the road, of its chromaticity, and may be shadow the texture test could not tell;
+    `silhouette_shade_weight` where such pixels are not solid and reach the outline), and which are
     solid: sure, or darker but smooth where the road has texture (a body face, not a shadow on the road)."""
 
     mask: np.ndarray
@@ -191,7 +194,9 @@ def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: 
     blob of at least `silhouette_min_part_fraction` of its area whose centre lies in that box: a body face of the
     road's colour breaks a vehicle into parts (a grey side over grey asphalt cuts the wheels off). A pixel darker
     than the road that keeps its chromaticity (within `silhouette_doubt_max_chroma`) may be shadow the texture test
-    could not tell: it weighs `silhouette_doubt_weight` in the fit (dark paint of a colour weighs 1). Darker pixels
+    could not tell: it weighs `silhouette_doubt_weight` in the fit (dark paint of a colour weighs 1), and
+    `silhouette_shade_weight` where it is not solid and its patch reaches the silhouette's outline (the shadow beside
+    the vehicle, more likely than a part of it). Darker pixels
     are solid where their texture is below `silhouette_smooth_ratio` of the road's there (darkened alike): a smooth
     body face, unless they form a speck of fewer than `silhouette_min_solid_px` pixels (a deep shadow's compressed
     texture can look smooth here and there)."""
@@ -225,7 +230,9 @@ def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: 
     window = params.silhouette_shadow_window_px
     smooth = local_std(grey, window) < params.silhouette_smooth_ratio * ratio * texture
     solid = without_specks(vehicle & (~darker_than_road | smooth), params.silhouette_min_solid_px)
-    return Silhouette(vehicle, np.where(vehicle, np.where(doubtful, params.silhouette_doubt_weight, 1.0), 0.0),
+    shade = at_outline(vehicle & doubtful & ~solid, vehicle)
+    doubt_weight = np.where(shade, params.silhouette_shade_weight, params.silhouette_doubt_weight)
+    return Silhouette(vehicle, np.where(vehicle, np.where(doubtful, doubt_weight, 1.0), 0.0),
                       solid, window // 2)
 
 
@@ -243,6 +250,18 @@ def vehicle_parts(contours: Sequence[np.ndarray], body: Box | None, min_part_fra
                 and body.x0 <= x + w / 2 < body.x1 and body.y0 <= y + h / 2 < body.y1):
             parts.append(contour)
     return parts
+
+
+def at_outline(part: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """The 8-connected components of `part` (inside the bool `mask`) that reach the mask's outline: a pixel of theirs
+    has a 4-neighbour outside the mask (or lies on the image's border)."""
+    outside = np.pad(~mask, 1, constant_values=True)
+    rim = mask & (outside[:-2, 1:-1] | outside[2:, 1:-1] | outside[1:-1, :-2] | outside[1:-1, 2:])
+    count, labels = cv2.connectedComponents(part.astype(np.uint8), connectivity=8)
+    reaching = np.zeros(count, bool)
+    reaching[np.unique(labels[part & rim])] = True
+    reaching[0] = False
+    return reaching[labels]
 
 
 def without_specks(mask: np.ndarray, min_area_px: int) -> np.ndarray:
