@@ -230,8 +230,10 @@ def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: 
     window = params.silhouette_shadow_window_px
     smooth = local_std(grey, window) < params.silhouette_smooth_ratio * ratio * texture
     solid = without_specks(vehicle & (~darker_than_road | smooth), params.silhouette_min_solid_px)
-    shade = at_outline(vehicle & doubtful & ~solid, vehicle)
-    doubt_weight = np.where(shade, params.silhouette_shade_weight, params.silhouette_doubt_weight)
+    doubt_weight = params.silhouette_doubt_weight
+    if params.silhouette_shade_weight != doubt_weight:  # the outline's patches only where they weigh otherwise
+        shade = at_outline(vehicle & doubtful & ~solid, vehicle)
+        doubt_weight = np.where(shade, params.silhouette_shade_weight, doubt_weight)
     return Silhouette(vehicle, np.where(vehicle, np.where(doubtful, doubt_weight, 1.0), 0.0),
                       solid, window // 2)
 
