@@ -38,9 +38,9 @@ def view_angle_deg(row: pd.Series) -> float:
 
 def view_of(row: pd.Series) -> str:
     """How the car shows itself, by `view_angle_deg`: `front` 0-22.5 deg, `front quarter`, `side`,
-    `rear quarter`, `rear` 157.5-180 deg."""
+    `rear quarter`, `rear` 157.5-180 deg; `unknown` for a row without the pose or the camera."""
     angle = view_angle_deg(row)
-    return next(name for limit, name in VIEWS if angle < limit)
+    return next((name for limit, name in VIEWS if angle < limit), "unknown")
 
 
 def flag(frame: pd.DataFrame, column: str) -> np.ndarray:

@@ -112,7 +112,7 @@ def _run(settings: BenchmarkSettings, split: str, case: BenchmarkCase) -> CaseOu
         outcome = run_case(case, split, settings.site, settings.cameras[case.camera_name], settings.draw,
                            settings.visibility, settings.localize, _worker_classifier)
     except Exception as err:  # noqa: BLE001 - one case's failure is that case's result
-        return CaseOutcome(failed_row(case, split, err), None)
+        return CaseOutcome(failed_row(case, split, settings.cameras[case.camera_name], err), None)
     if outcome.picture_bgr is None:
         return outcome
     row = outcome.row
@@ -120,15 +120,17 @@ def _run(settings: BenchmarkSettings, split: str, case: BenchmarkCase) -> CaseOu
     return CaseOutcome(row, thumbnail(outcome.picture_bgr, CELL_PX, caption))
 
 
-def failed_row(case: BenchmarkCase, split: str, err: Exception) -> dict[str, Any]:
-    """The row of a case whose run raised: what it was and what went wrong."""
+def failed_row(case: BenchmarkCase, split: str, camera: CameraSpec, err: Exception) -> dict[str, Any]:
+    """The row of a case whose run raised: what it was, where its camera stood and what went wrong."""
     return {"split": split, **asdict(case), "model": model_by_id(case.model_id).name, "status": "error",
             "reason": f"{type(err).__name__}: {err}", "localized": False, "key_point": "", "correct": False,
-            "key_points_visible": False}
+            "key_points_visible": False, "camera_x_mm": camera.position_mm[0], "camera_y_mm": camera.position_mm[1]}
 
 
 def short_reason(row: Mapping[str, Any]) -> str:
     """A few words on why a case falls short."""
+    if row.get("status") == "error":
+        return f"error ({row['reason']})"
     if not row["localized"]:
         return "not localized"
     if not row.get("fit_within", False):
