@@ -27,6 +27,16 @@ PLATE_POSES = {  # along the road, the front or the rear towards the camera, at 
     "far_rear_20": CarPose(-1500.0, 10500.0, 110.0),
     "far_rear_30": CarPose(-800.0, 9800.0, 60.0),
 }
+SMALL_PLATE_POSES = {  # along the road, 19-24 m away: plates 15-18 px wide, 5-6 px tall
+    "small_front_22": CarPose(900.0, 20000.0, -80.0),
+    "small_rear_24": CarPose(-1200.0, 22000.0, 100.0),
+    "small_rear_30": CarPose(-600.0, 19000.0, 60.0),
+    "small_front_26": CarPose(1500.0, 24000.0, -110.0),
+}
+SMALL_PLATE_QUARTER_POSES = {  # 15-17 m away, the rear and a side in view: a small plate and two wheels
+    "small_rear_quarter_60": CarPose(1200.0, 17000.0, 60.0),
+    "small_rear_quarter_120": CarPose(-800.0, 15000.0, 120.0),
+}
 OBLIQUE_POSES = {  # 45-50 deg off the road's axis, 5-6 m away: seen from above, the far wheel of the near side stands
     "oblique_rear_left": CarPose(-1500.0, 6000.0, 45.0),  # high in the silhouette, the near one low
     "oblique_rear_right": CarPose(1500.0, 6000.0, 135.0),
@@ -55,7 +65,7 @@ def table2_pose(name: str) -> CarPose:
 
 
 def pose_named(name: str) -> CarPose:
-    return table2_pose(name) if name.startswith("table2") else (PLATE_POSES | OBLIQUE_POSES)[name]
+    return table2_pose(name) if name.startswith("table2") else (PLATE_POSES | SMALL_PLATE_POSES | SMALL_PLATE_QUARTER_POSES | OBLIQUE_POSES)[name]
 
 
 @cache

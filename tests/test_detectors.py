@@ -9,7 +9,9 @@ import re
 import numpy as np
 import pytest
 
-from detector_scenes import BLACK, SILVER, heading_error_deg, render_case
+from detector_scenes import (
+    BLACK, SILVER, SMALL_PLATE_QUARTER_POSES, heading_error_deg, render_case,
+)
 from vehloc.data.boxes import Box
 from vehloc.geometry.footprint import FootprintParams, detect_footprint
 from vehloc.geometry.keypoints import DetectorParams, paper_placement
@@ -56,24 +58,44 @@ def test_wheel_branch(car):
     assert 0.4 < along < 0.6
 
 
-def test_a_plate_is_taken_only_with_a_plates_width_on_the_road():
-    """The plate branch of the paper's placement on the rear view: the 440-mm plate is taken; told that plates
-    are 10-20 mm wide, the placement does not take it, falls to the wheel branch (no wheels in this view) and
-    says what the part would measure: a range that holds the plate's true 440 mm."""
-    case = render_case(SILVER, "near_rear")
+def placement_of(case, car: tuple[int, int], params: DetectorParams, visible_end: str):
+    """The paper's placement of the case's car (its true model) with exact calibration and mask."""
     calibration = CameraCalibration(case.camera.road_to_image(), (case.camera.width_px, case.camera.height_px),
                                     case.camera, 0.5, "test camera")
     height_px, width_px = case.mask.shape
     roi = Box(int(case.offset_px[0]), int(case.offset_px[1]), int(case.offset_px[0]) + width_px,
               int(case.offset_px[1]) + height_px)
     silhouette = Silhouette(case.mask, case.mask.astype(np.float32), case.mask, 0)
-    spec = next(spec for spec in vehicle_specs() if spec.model_id == SILVER[0])
-    shape = catalog_shapes()[SILVER[0]]
+    spec = next(spec for spec in vehicle_specs() if spec.model_id == car[0])
+    return paper_placement(case.roi_bgr, silhouette, roi, calibration, spec, catalog_shapes()[car[0]], params,
+                           visible_end)
+
+
+def test_a_plate_is_taken_only_with_a_plates_width_on_the_road():
+    """The plate branch of the paper's placement on the rear view: the 440-mm plate is taken; told that plates
+    are 10-20 mm wide, the placement does not take it, falls to the wheel branch (no wheels in this view) and
+    says what the part would measure: a range that holds the plate's true 440 mm."""
+    case = render_case(SILVER, "near_rear")
     params = DetectorParams.from_config()
-    assert paper_placement(case.roi_bgr, silhouette, roi, calibration, spec, shape, params, "rear").kind == "plate"
+    assert placement_of(case, SILVER, params, "rear").kind == "plate"
     narrow = dataclasses.replace(params, plate=dataclasses.replace(params.plate, width_range_mm=(10.0, 20.0)))
-    refused = paper_placement(case.roi_bgr, silhouette, roi, calibration, spec, shape, narrow, "rear")
+    refused = placement_of(case, SILVER, narrow, "rear")
     assert isinstance(refused, NotPlaced) and refused.code == ReasonCode.NO_KEY_POINTS
     low_mm, high_mm = (float(v) for v in re.search(r"found no wheel; a plate-like part would be (\d+)-(\d+) mm wide",
                                                    refused.message).groups())
     assert low_mm < 440.0 < high_mm
+
+
+@pytest.mark.parametrize("pose", list(SMALL_PLATE_QUARTER_POSES) + ["small_rear_24"])
+def test_a_small_plate_gives_way_to_two_wheels(pose):
+    """A small plate (15-18 px, its sides its colour's outline) is found in each view (P within 1 px); where two
+    wheels are found too (a rear quarter 15-17 m away) the placement takes the wheels, where none are (the rear
+    end-on, 22 m away) the plate."""
+    case = render_case(SILVER, pose)
+    _, plate, wheels = detect_all(case)
+    assert plate is not None and plate.small
+    assert np.linalg.norm(plate.centre_px - case.camera.project(case.facing_plate().centre_mm[None])[0]) <= 1.0
+    placement = placement_of(case, SILVER, DetectorParams.from_config(), "rear")
+    expected = "wheels" if pose in SMALL_PLATE_QUARTER_POSES else "plate"
+    assert (wheels is not None and len(wheels.wheels) == 2) == (expected == "wheels")
+    assert placement.kind == expected

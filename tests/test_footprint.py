@@ -147,3 +147,16 @@ def test_params_come_from_the_config_with_overrides():
     assert FootprintParams.from_config(vertical_max_deg=5.0).vertical_max_deg == 5.0
     assert FootprintParams.from_config(lines={"clusters": 4}).lines.clusters == 4
     assert PARAMS.lines.clusters == FootprintParams.from_config().lines.clusters
+
+
+@pytest.mark.parametrize("pose", ["near_front", "far_rear_20", "table2_middle_30"])
+def test_a_length_hint_picks_which_of_the_two_axes_is_the_length(pose):
+    """The edges give two perpendicular axes; a hint (a licence plate's across-the-plate direction) picks the
+    one nearer it as the length axis, up to 44 deg off: near the truth the length heading stays within 1.5 deg of
+    it, near the truth + 90 deg it is the width axis (within 1.5 deg of truth + 90 deg)."""
+    case = render_case(SILVER, pose)
+    heading = case.pose.heading_deg
+    for hint_off_deg, expected_deg in ((0.0, heading), (40.0, heading), (90.0, heading + 90.0), (-50.0, heading + 90.0)):
+        lines = detect_footprint(case.roi_bgr, case.mask, case.offset_px, case.camera.road_to_image(),
+                                 case.camera_foot_mm, PARAMS, length_hint_deg=(heading + hint_off_deg) % 180.0)
+        assert heading_error_deg(lines.length_heading_deg, expected_deg) <= 1.5

@@ -26,7 +26,7 @@ __all__, __getattr__ = lazy_api(__name__, {
     "outcome": ["FailedEstimate", "NotPlaced", "ReasonCode"],
     "motion": ["PathHeading", "path_heading", "recent_path"],
     "placement": ["VehicleBox", "direction_of", "facing", "heading_of"],
-    "plate": ["Plate", "PlateParams", "detect_plate"],
+    "plate": ["Plate", "PlateParams", "detect_plate", "plate_candidates"],
     "projective": ["HorizonError", "ProjectiveTransform"],
     "roi": ["RoiParams", "Silhouette", "VehicleRoiExtractor", "vehicle_silhouette"],
     "silhouette_start": ["silhouette_start_headings_deg"],

@@ -205,9 +205,12 @@ def detect_footprint(
     road_to_image: ProjectiveTransform,
     camera_foot_mm: np.ndarray,
     params: FootprintParams,
+    length_hint_deg: float | None = None,
 ) -> FootprintLines | None:
     """Footprint lines of the vehicle in an ROI; None when its edges show no road direction or its silhouette
-    does not reach below the horizon.
+    does not reach below the horizon. `length_hint_deg` (road deg), when given, says which of the two axes the
+    edges show is the length axis (the one nearer it: e.g. across a licence plate's edges); else the edges'
+    lengths and the outline's extent say.
 
     `roi_bgr`: the ROI crop (uint8 BGR); `mask`: its foreground (bool, the vehicle's pixels); `offset_px`:
     the ROI's top-left in the frame (x, y); `road_to_image`: road mm -> frame px; `camera_foot_mm`: the
@@ -247,6 +250,9 @@ def detect_footprint(
     candidates = [(edge_px[i], edge_deg[i] - 90.0 * k) for k in (0, 1) for i in np.flatnonzero(on_axis[k])]
     if candidates:  # the bottom edge seen longest in the image sets the direction
         axis_deg = max(candidates)[1]
+    if length_hint_deg is not None:
+        length = int(angle_difference_deg(axis_deg + 90.0, length_hint_deg, 180.0)
+                     < angle_difference_deg(axis_deg, length_hint_deg, 180.0))
     length_heading_deg = float((axis_deg + 90.0 * length) % 180.0)
     groups = [usable & (angle_difference_deg(direction_deg, length_heading_deg + a, 180.0)
                         <= params.group_tolerance_deg) for a in (0.0, 90.0)]

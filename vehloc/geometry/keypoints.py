@@ -4,8 +4,11 @@ The plate branch, first: O is the footprint point below the plate's middle P, wh
 vertical through P (towards the camera's vertical vanishing point) meets the front line l_F; C lies along
 the length axis, into the vehicle (perpendicular to the plate's upper and lower edges on the road when they
 agree with the side line's direction, else along it); the box's visible end is stuck to O_W with its long
-centreline along O_W C_W. A plate-like part that no plate could be by its width on the road, at any height
-a plate is mounted at (a bright band on the roof of a small, far car), is not taken. The wheel branch, when
+centreline along O_W C_W. The plate also says which of the two axes the body's edges show is the length axis
+(the one across the plate's edges): an end seen head-on shows little of its sides. A plate-like part that no
+plate could be by its width on the road, at any height a plate is mounted at (a bright band on the roof of a
+small, far car), is not taken: the best candidate that can be a plate is. A small plate (its sides its colour's
+outline, not found on the edges) gives way to two wheels. The wheel branch, when
 no plate is found: the two near tyres' contacts on the side line l_S (the outer faces' contacts with the
 road, where l_S touches the tyres; taken from the tyres themselves, as a shadow beside the car can push the
 silhouette's l_S outwards; l_S's direction is the one from contact to contact), Q their middle on the road,
@@ -26,7 +29,7 @@ from vehloc.data.shapes import VehicleShape
 from vehloc.data.specs import VehicleSpec
 from vehloc.geometry.footprint import FootprintLines, FootprintParams, detect_footprint
 from vehloc.geometry.placement import VehicleBox, direction_of, heading_of, place_on_end, place_on_side
-from vehloc.geometry.plate import Plate, PlateParams, detect_plate
+from vehloc.geometry.plate import Plate, PlateParams, plate_candidates
 from vehloc.geometry.outcome import NotPlaced, ReasonCode
 from vehloc.geometry.projective import HorizonError, ProjectiveTransform
 from vehloc.geometry.roi import Silhouette
@@ -150,6 +153,16 @@ def implausible_plate(plate: Plate, calibration: CameraCalibration, params: Plat
     return None
 
 
+def plausible_plate(candidates: list[Plate], calibration: CameraCalibration,
+                    params: PlateParams) -> tuple[Plate | None, str | None]:
+    """The best of the `candidates` (best first) that a plate can be by its size on the road, and, when none
+    can, why the best cannot (None when there were no candidates)."""
+    for plate in candidates:
+        if implausible_plate(plate, calibration, params) is None:
+            return plate, None
+    return None, implausible_plate(candidates[0], calibration, params) if candidates else None
+
+
 def below_plate_mm(plate_centre_mm: np.ndarray, front_line_mm: np.ndarray,
                    camera_foot_mm: np.ndarray) -> np.ndarray | NotPlaced:
     """O: where the vertical through the plate's middle P meets the front footprint line, on the road. The
@@ -184,25 +197,45 @@ def _placement(
     roi_bgr: np.ndarray, silhouette: Silhouette, roi: Box, calibration: CameraCalibration, spec: VehicleSpec,
     shape: VehicleShape, params: DetectorParams, visible_end: str | None,
 ) -> Placement | NotPlaced:
-    road_to_image, offset = calibration.road_to_image, np.array([roi.x0, roi.y0], dtype=float)
-    foot = calibration.camera.centre_mm[:2]
-    length_mm, width_mm = spec.length_mm, spec.width_mm
-    plate = detect_plate(roi_bgr, silhouette.mask, offset, params.plate)
-    not_a_plate = None if plate is None else implausible_plate(plate, calibration, params.plate)
-    if plate is not None and not_a_plate is None:
-        lines = _footprint_lines(roi_bgr, silhouette.trimmed(), offset, calibration, params)
-        if isinstance(lines, NotPlaced):
-            return lines
-        p_mm = road_to_image.inverse.map_visible(plate.centre_px[None], "P")[0]
-        front_line = lowered_line_mm(lines.front_line_mm, end_bottom_height_mm(shape, visible_end), calibration.camera.centre_mm)
-        o_mm = below_plate_mm(p_mm, front_line, foot)
-        if isinstance(o_mm, NotPlaced):
-            return o_mm
-        heading = plate_length_heading_deg(plate, road_to_image, lines.length_heading_deg,
-                                           params.plate.heading_agreement_deg)
-        into = inward(heading, o_mm, foot)
-        box = place_on_end(o_mm, into, length_mm, width_mm)
-        return Placement(box, "plate", o_mm, o_mm + C_DISTANCE_MM * into, length_mm / 2)
+    offset = np.array([roi.x0, roi.y0], dtype=float)
+    plate, not_a_plate = plausible_plate(plate_candidates(roi_bgr, silhouette.mask, offset, params.plate),
+                                         calibration, params.plate)
+    if plate is not None and not plate.small:
+        return _plate_placement(plate, roi_bgr, silhouette, offset, calibration, spec, shape, params, visible_end)
+    wheels = _wheel_placement(roi_bgr, silhouette, offset, calibration, spec, params, not_a_plate)
+    if plate is not None and isinstance(wheels, NotPlaced):  # a small plate gives way to two wheels
+        return _plate_placement(plate, roi_bgr, silhouette, offset, calibration, spec, shape, params, visible_end)
+    return wheels
+
+
+def _plate_placement(
+    plate: Plate, roi_bgr: np.ndarray, silhouette: Silhouette, offset: np.ndarray, calibration: CameraCalibration,
+    spec: VehicleSpec, shape: VehicleShape, params: DetectorParams, visible_end: str | None,
+) -> Placement | NotPlaced:
+    """The plate branch (the module's docstring)."""
+    road_to_image, foot = calibration.road_to_image, calibration.camera.centre_mm[:2]
+    across_plate_deg = (plate_width_heading_deg(plate, road_to_image) + 90.0) % 180.0
+    lines = _footprint_lines(roi_bgr, silhouette.trimmed(), offset, calibration, params, across_plate_deg)
+    if isinstance(lines, NotPlaced):
+        return lines
+    p_mm = road_to_image.inverse.map_visible(plate.centre_px[None], "P")[0]
+    front_line = lowered_line_mm(lines.front_line_mm, end_bottom_height_mm(shape, visible_end), calibration.camera.centre_mm)
+    o_mm = below_plate_mm(p_mm, front_line, foot)
+    if isinstance(o_mm, NotPlaced):
+        return o_mm
+    heading = plate_length_heading_deg(plate, road_to_image, lines.length_heading_deg,
+                                       params.plate.heading_agreement_deg)
+    into = inward(heading, o_mm, foot)
+    box = place_on_end(o_mm, into, spec.length_mm, spec.width_mm)
+    return Placement(box, "plate", o_mm, o_mm + C_DISTANCE_MM * into, spec.length_mm / 2)
+
+
+def _wheel_placement(
+    roi_bgr: np.ndarray, silhouette: Silhouette, offset: np.ndarray, calibration: CameraCalibration,
+    spec: VehicleSpec, params: DetectorParams, not_a_plate: str | None,
+) -> Placement | NotPlaced:
+    """The wheel branch; `not_a_plate`: why a plate-like part was not taken, told when no wheels are found."""
+    road_to_image, foot = calibration.road_to_image, calibration.camera.centre_mm[:2]
     lines = _footprint_lines(roi_bgr, silhouette.mask, offset, calibration, params)
     if isinstance(lines, NotPlaced):
         return lines
@@ -215,14 +248,14 @@ def _placement(
     contacts_mm = road_to_image.inverse.map_visible(contacts_px, "tyre contact")
     q_mm = contacts_mm.mean(axis=0)
     into = inward(heading_of(contacts_mm[1] - contacts_mm[0]) + 90.0, q_mm, foot)
-    box = place_on_side(q_mm, into, length_mm, width_mm)
+    box = place_on_side(q_mm, into, spec.length_mm, spec.width_mm)
     return Placement(box, "wheels", q_mm, q_mm + C_DISTANCE_MM * into, float(np.linalg.norm(contacts_mm[1] - contacts_mm[0])))
 
 
 def _footprint_lines(roi_bgr: np.ndarray, mask: np.ndarray, offset: np.ndarray, calibration: CameraCalibration,
-                     params: DetectorParams) -> FootprintLines | NotPlaced:
+                     params: DetectorParams, length_hint_deg: float | None = None) -> FootprintLines | NotPlaced:
     lines = detect_footprint(roi_bgr, mask, offset, calibration.road_to_image, calibration.camera.centre_mm[:2],
-                             params.footprint)
+                             params.footprint, length_hint_deg)
     if lines is None:
         return NotPlaced(ReasonCode.NO_FOOTPRINT_LINES, "no footprint lines: the vehicle's edges show no road direction")
     return lines

@@ -13,8 +13,10 @@ the core outwards crosses the plate's colour and then leaves it at the plate's e
 half-way between the plate's and the characters' levels, interpolated between samples. Starting inside, the
 search is not misled by a lit strip of body that touches the plate. A candidate is a plate when its
 quadrilateral has a plate's size and aspect, a plate's share of characters, its sides were found, and a row
-through its middle crosses the characters. P is where the diagonals meet: the image of the plate's centre,
-whatever the perspective.
+through its middle crosses the characters. A small plate (a few pixels tall) has no room between its characters
+and its edges to find the sides on: its sides are then the outline of its colour's blob (the closing has joined
+it across the characters), lying along the image rows with characters inside, and tested the same way. P is
+where the diagonals meet: the image of the plate's centre, whatever the perspective.
 """
 
 from __future__ import annotations
@@ -45,6 +47,9 @@ class PlateParams:
     edge_reach_fraction: float
     min_fitted_side_px: float
     max_side_residual_px: float
+    small_max_height_px: float
+    small_max_tilt_deg: float
+    small_min_character_fraction: float
     min_width_px: float
     max_width_fraction: float
     aspect_range: tuple[float, float]
@@ -68,8 +73,10 @@ class PlateParams:
         check_range("run_together_aspect", self.run_together_aspect, 0.0, low_open=True)
         check_range("min_character_height_fraction", self.min_character_height_fraction, 0.0, 1.0)
         check_range("edge_reach_fraction", self.edge_reach_fraction, 0.0)
-        for name in ("min_fitted_side_px", "max_side_residual_px", "min_width_px"):
+        for name in ("min_fitted_side_px", "max_side_residual_px", "small_max_height_px", "min_width_px"):
             check_range(name, getattr(self, name), 0.0)
+        check_range("small_max_tilt_deg", self.small_max_tilt_deg, 0.0, 90.0)
+        check_range("small_min_character_fraction", self.small_min_character_fraction, 0.0, 1.0)
         check_range("max_width_fraction", self.max_width_fraction, 0.0, 1.0, low_open=True)
         check_interval("aspect_range", self.aspect_range, 0.0, low_open=True)
         check_interval("character_fraction_range", self.character_fraction_range, 0.0, 1.0)
@@ -93,14 +100,16 @@ class Plate:
     ``corners_px`` (4, 2): top-left, top-right, bottom-right, bottom-left as seen in the image (the edge of the
     plate's colour); ``centre_px``: P, where the diagonals meet; ``upper_line_px`` and ``lower_line_px``: l_UL
     and l_LL, homogeneous `a x + b y + c = 0` with `a^2 + b^2 = 1` and the plate on the positive side;
-    ``score`` in [0, 1]: the share of the plate's four sides found on the image edges times how clearly a row
-    through its middle crosses the characters."""
+    ``score`` in [0, 1]: the share of the plate's four sides found on the image edges (a small plate's are its
+    colour's outline) times how clearly a row through its middle crosses the characters; ``small``: its sides are
+    its colour's outline (a small plate), not found on the image edges."""
 
     corners_px: np.ndarray
     centre_px: np.ndarray
     upper_line_px: np.ndarray
     lower_line_px: np.ndarray
     score: float
+    small: bool = False
 
 
 def plate_coloured(roi_bgr: np.ndarray, params: PlateParams) -> np.ndarray:
@@ -295,17 +304,34 @@ def line_through(a_px: np.ndarray, b_px: np.ndarray, inside_px: np.ndarray) -> n
     return line if line[:2] @ inside_px + line[2] >= 0 else -line
 
 
-def detect_plate(
+def small_plate_corners(blob: np.ndarray, seeds: np.ndarray, params: PlateParams) -> np.ndarray | None:
+    """The corners of a small plate's blob (its colour joined across the characters, holes filled): the rotated
+    rectangle around its pixel squares; None when it is taller than `small_max_height_px`, its long sides are
+    more than `small_max_tilt_deg` off the image rows (a plate's characters stand side by side), or less than
+    `small_min_character_fraction` of it is not plate-coloured (no characters in it)."""
+    corners = core_corners(blob)
+    height_px = (np.linalg.norm(corners[3] - corners[0]) + np.linalg.norm(corners[2] - corners[1])) / 2
+    dx, dy = corners[1] - corners[0]
+    characters = np.count_nonzero(blob & ~seeds) / np.count_nonzero(blob)
+    if (height_px > params.small_max_height_px or np.degrees(np.arctan2(abs(dy), abs(dx))) > params.small_max_tilt_deg
+            or characters < params.small_min_character_fraction):
+        return None
+    return corners
+
+
+def plate_candidates(
     roi_bgr: np.ndarray, mask: np.ndarray, offset_px: np.ndarray, params: PlateParams
-) -> Plate | None:
-    """The best-scoring plate of the vehicle's ROI, or None when none scores `min_score`.
+) -> list[Plate]:
+    """The plates of the vehicle's ROI scoring at least `min_score`, best first (on a tie, the one whose sides
+    were found on the edges).
 
     `roi_bgr`: the ROI crop (uint8 BGR); `mask`: its foreground (bool); `offset_px`: the ROI's top-left in the
     frame (x, y)."""
     grey = cv2.cvtColor(roi_bgr, cv2.COLOR_BGR2GRAY).astype(np.float32)
     seeds = plate_coloured(roi_bgr, params) & np.asarray(mask, dtype=bool)
-    best: tuple[float, np.ndarray] | None = None
+    scored: list[tuple[float, np.ndarray, bool]] = []
     for blob in filled_blobs(seeds, params.close_px):
+        quads = []
         for row in character_rows(blob & ~seeds, params.min_characters, params.run_together_aspect):
             core = core_corners(row)
             if character_height_fraction(row, core) < params.min_character_height_fraction:
@@ -316,15 +342,23 @@ def detect_plate(
             plate_level, characters_level = float(np.median(grey[near])), float(np.median(grey[row]))
             found = plate_corners(grey, core, (plate_level + characters_level) / 2,
                                   plate_level > characters_level, params)
-            if found is None:
-                continue
-            score = plate_score(grey, seeds, *found, params, roi_bgr.shape[1])
-            if score >= params.min_score and (best is None or score > best[0]):
-                best = (score, found[0])
-    if best is None:
-        return None
-    score, corners = best
-    corners = corners + np.asarray(offset_px, dtype=float)
+            if found is not None:
+                quads.append((*found, False))
+        small = small_plate_corners(blob, seeds, params)
+        if small is not None:
+            quads.append((small, 4, True))
+        for corners, sides_found, from_outline in quads:
+            score = plate_score(grey, seeds, corners, sides_found, params, roi_bgr.shape[1])
+            if score >= params.min_score:
+                scored.append((score, corners, from_outline))
+    scored.sort(key=lambda item: -item[0])
+    return [plate_from_corners(corners + np.asarray(offset_px, dtype=float), score, small)
+            for score, corners, small in scored]
+
+
+def plate_from_corners(corners: np.ndarray, score: float, small: bool = False) -> Plate:
+    """The plate of frame corners (ordered): P where the diagonals meet, the upper and lower lines; `small` when
+    the corners are its colour's outline."""
     diagonals = np.cross(np.cross([*corners[0], 1.0], [*corners[2], 1.0]),
                          np.cross([*corners[1], 1.0], [*corners[3], 1.0]))
     centre = diagonals[:2] / diagonals[2]
@@ -334,4 +368,13 @@ def detect_plate(
         upper_line_px=line_through(corners[0], corners[1], centre),
         lower_line_px=line_through(corners[3], corners[2], centre),
         score=float(score),
+        small=small,
     )
+
+
+def detect_plate(
+    roi_bgr: np.ndarray, mask: np.ndarray, offset_px: np.ndarray, params: PlateParams
+) -> Plate | None:
+    """The best-scoring plate of the vehicle's ROI (`plate_candidates`), or None when none scores `min_score`."""
+    candidates = plate_candidates(roi_bgr, mask, offset_px, params)
+    return candidates[0] if candidates else None
