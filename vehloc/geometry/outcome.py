@@ -17,6 +17,7 @@ class ReasonCode(StrEnum):
     NO_FOOTPRINT_LINES = "no_footprint_lines"
     NO_KEY_POINTS = "no_key_points"
     PLATE_PARALLEL_TO_FRONT = "plate_parallel_to_front"
+    KEY_POINTS_OFF_PATH = "key_points_off_path"
     ON_HORIZON = "on_horizon"
     PATH_TOO_SHORT = "path_too_short"
     PATH_HEADING_UNCERTAIN = "path_heading_uncertain"

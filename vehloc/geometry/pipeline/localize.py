@@ -7,7 +7,8 @@ a vehicle is to be localized its crops are classified together (track voting), t
 dimensions (the paper's method), the predicted model's shape is fitted to its silhouette from there (the
 model fit; a moving vehicle points where it goes, so with `heading_from_motion` its heading is its recent
 path's and the fit finds only its position), and each estimate gets its 1-sigma uncertainty. A stopped vehicle
-with neither plate nor wheels found is fitted from its silhouette's lower outline instead (`fit_from_silhouette`).
+with neither plate nor wheels found is fitted from its silhouette's lower outline instead (`fit_from_silhouette`);
+a moving vehicle's key points whose box lies across its own path are not taken (`max_key_points_path_gap_deg`).
 A vehicle cut by the frame's edge, whose fit does not explain its silhouette, or that moves along a path too
 short or too irregular to tell its heading, or which way it goes (and shows no key points), is recorded as not
 localized, with its reason code and sentence: a stage that cannot place a vehicle returns a `NotPlaced`, never an
@@ -29,7 +30,7 @@ from vehloc.errors import VehlocError
 from vehloc.geometry.keypoints import Placement, paper_placement
 from vehloc.geometry.model_fit import best_start, fit_model
 from vehloc.geometry.motion import PathHeading
-from vehloc.geometry.placement import VehicleBox, between_axles, direction_of, facing
+from vehloc.geometry.placement import VehicleBox, axis_difference_deg, between_axles, direction_of, facing
 from vehloc.geometry.outcome import NotPlaced, ReasonCode
 from vehloc.geometry.roi import VehicleRoiExtractor
 from vehloc.geometry.silhouette_start import silhouette_start_headings_deg
@@ -264,6 +265,8 @@ class Localizer:
             silhouette = self.extractor.foreground(roi, box)
             placement = paper_placement(roi.crop(frame_bgr), silhouette, roi, self.calibration, spec, shape,
                                         self.detectors, went.visible_end)
+        if not isinstance(placement, NotPlaced) and motion is not None:
+            placement = along_path(placement, motion, self.params.max_key_points_path_gap_deg)
         if isinstance(placement, NotPlaced):
             if unclear is not None:
                 return replace(record, status=Status.NOT_LOCALIZED, reason_code=unclear.code,
@@ -347,6 +350,16 @@ class Localizer:
             uncertainty = Uncertainty.combined(dimensions, self._calibration_part(box, motion.extent_mm),
                                                (0.0, motion.sigma_deg))
         return Estimate("fit", box, None, uncertainty, first.iou, start_kind)
+
+
+def along_path(placement: Placement, motion: PathHeading, max_gap_deg: float) -> Placement | NotPlaced:
+    """The paper's placement of a moving vehicle, or why it is not taken: its length axis more than `max_gap_deg`
+    off the track's own path (its key points were not the vehicle's)."""
+    gap_deg = abs(axis_difference_deg(placement.box.heading_deg, motion.heading_deg))
+    if gap_deg <= max_gap_deg:
+        return placement
+    return NotPlaced(ReasonCode.KEY_POINTS_OFF_PATH,
+                     f"the {placement.kind} branch's box lies {gap_deg:.0f} deg off the track's path")
 
 
 def joined(*reasons: str) -> str:

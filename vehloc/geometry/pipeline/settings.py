@@ -42,6 +42,7 @@ class PipelineParams:
     min_speed_sigmas: float
     min_fit_iou: float
     wheels_at_axles: bool
+    max_key_points_path_gap_deg: float
 
     def __post_init__(self) -> None:
         check_choice("vote_policy", self.vote_policy, VOTE_POLICIES)
@@ -57,6 +58,7 @@ class PipelineParams:
         check_range("max_motion_sigma_deg", self.max_motion_sigma_deg, 0.0)
         check_range("min_speed_sigmas", self.min_speed_sigmas, 0.0)
         check_range("min_fit_iou", self.min_fit_iou, 0.0, 1.0)
+        check_range("max_key_points_path_gap_deg", self.max_key_points_path_gap_deg, 0.0, 90.0)
         check_range("silhouette_search_mm step", self.silhouette_search_mm[2], 0.0, low_open=True)
         check_range("silhouette_search_mm", self.silhouette_search_mm[0], None, self.silhouette_search_mm[1])
 
