@@ -4,6 +4,7 @@ override or setting is one line and exit code 1 from the CLI, before any file is
 
 from __future__ import annotations
 
+import copy
 import subprocess
 import sys
 from pathlib import Path
@@ -77,15 +78,28 @@ SIGNED_OUT_OF_RANGE = {"speed.edge_inset_px": 5.0, "pipeline.silhouette_search_m
 """The settings where a negative value means something: a value out of their range instead."""
 
 
+@pytest.fixture(scope="module")
+def default_values() -> dict:
+    """Each stage group's defaults (plain data), read once."""
+    return {group: read_config(f"localize/{group}/default.yaml") for group in STAGE_GROUPS}
+
+
 @pytest.mark.parametrize("setting", [name for name, _ in NUMERIC_SETTINGS])
-def test_every_numeric_setting_of_every_stage_has_its_range_checked(setting: str) -> None:
+def test_every_numeric_setting_of_every_stage_has_its_range_checked(setting: str, default_values: dict) -> None:
     """Each stage's schema checks every number before any frame is read: a negative one (or, where negatives mean
-    something, one out of range) is a ConfigError naming the setting, not a traceback, a hang or a silent run."""
+    something, one out of range) is a ConfigError naming the setting, not a traceback, a hang or a silent run. (The
+    schema is what a composed override reaches: `test_a_bad_override_of_the_library_is_a_config_error` goes through
+    Hydra's composition.)"""
     default = dict(NUMERIC_SETTINGS)[setting]
     bad = SIGNED_OUT_OF_RANGE.get(setting, [-1] * len(default) if isinstance(default, list) else -1)
-    override = f"{setting}={bad}".replace(" ", "")
+    values = copy.deepcopy(default_values)
+    *path, key = setting.split(".")
+    node = values
+    for part in path:
+        node = node[part]
+    node[key] = bad
     with pytest.raises(ConfigError, match=setting.replace(".", r"\.")) as caught:
-        LocalizeSettings.compose([override])
+        LocalizeSettings.from_mapping(values)
     assert "\n" not in str(caught.value)
 
 
