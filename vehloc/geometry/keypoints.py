@@ -9,7 +9,7 @@ centreline along O_W C_W. The plate also says which of the two axes the body's e
 plate could be by its width on the road, at any height a plate is mounted at (a bright band on the roof of a
 small, far car), is not taken: the best candidate that can be a plate is. A small plate (its sides its colour's
 outline, not found on the edges) gives way to two wheels. The wheel branch, when
-no plate is found: the two near tyres' contacts on the side line l_S (the outer faces' contacts with the
+no plate is taken: the two near tyres' contacts on the side line l_S (the outer faces' contacts with the
 road, where l_S touches the tyres; taken from the tyres themselves, as a shadow beside the car can push the
 silhouette's l_S outwards; l_S's direction is the one from contact to contact), Q their middle on the road,
 C perpendicular to l_S, into the vehicle; the box's near side is stuck to Q_W between the axles with its
