@@ -157,10 +157,13 @@ def plausible_plate(candidates: list[Plate], calibration: CameraCalibration,
                     params: PlateParams) -> tuple[Plate | None, str | None]:
     """The best of the `candidates` (best first) that a plate can be by its size on the road, and, when none
     can, why the best cannot (None when there were no candidates)."""
+    reasons = []
     for plate in candidates:
-        if implausible_plate(plate, calibration, params) is None:
+        why = implausible_plate(plate, calibration, params)
+        if why is None:
             return plate, None
-    return None, implausible_plate(candidates[0], calibration, params) if candidates else None
+        reasons.append(why)
+    return None, reasons[0] if reasons else None
 
 
 def below_plate_mm(plate_centre_mm: np.ndarray, front_line_mm: np.ndarray,
