@@ -2,18 +2,31 @@
 
 from __future__ import annotations
 
+import os
 import shutil
 from pathlib import Path
 
-import cv2
-import numpy as np
-import pytest
 
-from vehloc.data.attributes import ModelAttributes, write_attributes
-from vehloc.data.boxes import Box
-from vehloc.data.compcars import write_label, write_split_list
-from vehloc.data.matfile import write_make_model_names
-from vehloc.data.specs import VehicleSpec, write_specs_csv
+def _share_the_cores_between_workers() -> None:
+    """Under pytest-xdist each worker, and every process it starts, gets its share of the cores for the math
+    libraries' threads (OpenMP: torch's): two workers each running as many threads as there are cores made the
+    training and export tests a third slower on 2 cores. A value already set is kept."""
+    workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+    if workers > 1:
+        os.environ.setdefault("OMP_NUM_THREADS", str(max(1, (os.cpu_count() or 1) // workers)))
+
+
+_share_the_cores_between_workers()  # before anything imports torch
+
+import cv2  # noqa: E402
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+from vehloc.data.attributes import ModelAttributes, write_attributes  # noqa: E402
+from vehloc.data.boxes import Box  # noqa: E402
+from vehloc.data.compcars import write_label, write_split_list  # noqa: E402
+from vehloc.data.matfile import write_make_model_names  # noqa: E402
+from vehloc.data.specs import VehicleSpec, write_specs_csv  # noqa: E402
 
 PROJECT_ROOT = Path(__file__).resolve().parents[1]
 SHARED_DATA = PROJECT_ROOT.parent / "shared" / "data"
@@ -80,3 +93,10 @@ def stanford_copy(tmp_path: Path, stanford_root: Path) -> Path:
     for path in copy.rglob("*"):
         path.chmod(0o755 if path.is_dir() else 0o644)
     return copy
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """The files with slow tests first, each file's tests in their order: pytest-xdist hands whole files to the
+    workers as they free up, so the long ones start early and the workers end together."""
+    slow_files = {item.path for item in items if item.get_closest_marker("slow") is not None}
+    items.sort(key=lambda item: item.path not in slow_files)

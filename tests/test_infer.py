@@ -27,6 +27,8 @@ from vehloc.train.instantiate import compose_config
 from vehloc.train.module import preprocessing_of, read_checkpoint
 from vehloc.train.train import train
 
+pytestmark = pytest.mark.slow  # trains small networks and exports them
+
 
 @pytest.fixture(scope="module")
 def trained(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:

@@ -18,6 +18,8 @@ from vehloc.hardware import cpu_info
 from vehloc.train.instantiate import compose_config
 from vehloc.train.train import train
 
+pytestmark = pytest.mark.slow  # trains small networks end to end
+
 PROJECT_ROOT = Path(__file__).resolve().parents[1]
 
 
