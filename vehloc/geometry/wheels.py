@@ -39,6 +39,7 @@ class WheelParams:
     min_rim_px: float
     min_axis_ratio: float
     min_ellipse_overlap: float
+    spoked_rims: bool
     tyre_to_rim_range: tuple[float, float]
     min_dark_tyre: float
     tyre_end_contrast: float
@@ -185,20 +186,41 @@ def rim_candidates(
     for contrast in params.dark_contrasts:
         dark = (band & (roi_grey <= darkest + contrast)).astype(np.uint8)
         contours, hierarchy = cv2.findContours(dark, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
-        for contour, (_, _, _, parent) in zip(contours, hierarchy[0] if hierarchy is not None else []):
-            if parent < 0 or len(contour) < 5:  # holes only
+        holes = [contour for contour, (_, _, _, parent) in zip(contours, hierarchy[0] if hierarchy is not None else [])
+                 if parent >= 0]
+        outlines = holes + (spoked_rims(holes, dark.shape, params.min_rim_px) if params.spoked_rims else [])
+        for outline in outlines:
+            if len(outline) < 5:
                 continue
-            rim = Ellipse.from_rotated_rect(cv2.fitEllipse(contour.astype(np.float32)))
+            rim = Ellipse.from_rotated_rect(cv2.fitEllipse(outline.astype(np.float32)))
             minor, major = rim.semi_axes_px[1], rim.semi_axes_px[0]
             if minor < params.min_rim_px or minor < params.min_axis_ratio * major:
                 continue
             hole = np.zeros_like(dark)
-            cv2.drawContours(hole, [contour], -1, 1, cv2.FILLED)
+            cv2.drawContours(hole, [outline], -1, 1, cv2.FILLED)
             inside = rim.mask(dark.shape)
             overlap = np.count_nonzero(inside & hole.astype(bool)) / np.count_nonzero(inside | hole.astype(bool))
             if overlap >= params.min_ellipse_overlap:
                 rims.append((rim, overlap, dark.astype(bool)))
     return rims
+
+
+def spoked_rims(holes: list[np.ndarray], shape: tuple[int, int], spoke_px: float) -> list[np.ndarray]:
+    """The outlines of rims whose spokes are as dark as the tyre: the gaps between the spokes are holes of their own,
+    none the rim's shape; holes at most two `spoke_px` apart are grouped, and each group of two or more gives the
+    convex hull of its holes (the rim, its spokes' ends on the hull)."""
+    if len(holes) < 2:
+        return []
+    canvas = np.zeros(shape, np.uint8)
+    cv2.drawContours(canvas, holes, -1, 1, cv2.FILLED)
+    reach = max(1, int(round(spoke_px)))
+    grown = cv2.dilate(canvas, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * reach + 1,) * 2))
+    _, labels = cv2.connectedComponents(grown)
+    groups: dict[int, list[np.ndarray]] = {}
+    for hole in holes:
+        x, y = hole[0, 0]
+        groups.setdefault(int(labels[y, x]), []).append(hole)
+    return [cv2.convexHull(np.concatenate(group)) for group in groups.values() if len(group) >= 2]
 
 
 def best_per_place(found: list[tuple]) -> list[tuple]:
