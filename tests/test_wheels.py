@@ -14,7 +14,7 @@ from detector_scenes import (
 )
 from vehloc.geometry.footprint import FootprintParams, detect_footprint
 from vehloc.geometry.wheels import (
-    Ellipse, WheelParams, best_per_place, conic_crossings, detect_wheels, vertical_diameter,
+    Ellipse, WheelParams, best_per_place, conic_crossings, detect_wheels, rim_candidates, vertical_diameter,
 )
 
 PARAMS = WheelParams.from_config()
@@ -75,13 +75,14 @@ def test_table2_poses_two_near_side_contacts_within_3_px(car, pose):
 def test_oblique_views_from_above_find_the_far_wheel_high_in_the_silhouette(car, pose):
     """A car 45-50 deg off the road's axis, 5-6 m away: the near side's far wheel stands in the silhouette's upper
     half. Both contacts within 2 px (measured: 0.9 px at most); searching only the lower 60 % of the silhouette
-    (the band before) finds one wheel."""
+    (the band before) for rims that are one hole each finds one wheel (with the spoked rims grouped from their gaps it
+    finds both)."""
     case = render_case(car, pose)
     wheels = wheels_of(case)
     assert wheels is not None and len(wheels.wheels) == 2
     assert contact_errors_px(case, wheels).max() <= 2.0
     lower = detect_wheels(case.roi_bgr, case.mask, case.offset_px, case.camera.road_to_image(), case.camera_foot_mm,
-                          WheelParams.from_config(band_fraction=0.6))
+                          WheelParams.from_config(band_fraction=0.6, spoked_rims=False))
     assert lower is None or len(lower.wheels) < 2
 
 
@@ -167,6 +168,44 @@ def test_of_a_wheels_holes_at_several_darkness_levels_its_rim_is_kept_not_its_hu
     other = measured((240.0, 48.0), (12.0, 11.0), 0.8)
     kept = best_per_place([hub, rim, other])
     assert sorted(item[0] for item in kept) == [0.65, 0.8]
+
+
+def spoked_wheel(spokes: int, spoke_width_px: int) -> tuple[np.ndarray, np.ndarray, Ellipse]:
+    """A grey patch with a dark tyre (an ellipse of semi-axes 27 x 21 px, 10 deg) round a light rim (18 x 14 px)
+    crossed by `spokes` dark spokes from a dark hub (none without spokes): (grey image, its mask, the rim's drawn
+    ellipse)."""
+    rim = Ellipse(np.array([60.0, 40.0]), np.array([18.0, 14.0]), 10.0)
+    grey = np.full((80, 120), 120, np.uint8)
+    cv2.ellipse(grey, ((60.0, 40.0), (54.0, 42.0), 10.0), 20, cv2.FILLED)
+    cv2.ellipse(grey, ((60.0, 40.0), (36.0, 28.0), 10.0), 170, cv2.FILLED)
+    theta = np.radians(10.0)
+    for k in range(spokes):
+        angle = 2 * np.pi * k / spokes
+        local = np.array([18.0 * np.cos(angle), 14.0 * np.sin(angle)])
+        end = rim.centre_px + np.array([[np.cos(theta), -np.sin(theta)], [np.sin(theta), np.cos(theta)]]) @ local
+        cv2.line(grey, (60, 40), tuple(int(round(v)) for v in end), 20, spoke_width_px)
+    if spokes:
+        cv2.circle(grey, (60, 40), 4, 20, cv2.FILLED)
+    return grey.astype(np.float32), np.ones(grey.shape, bool), rim
+
+
+@pytest.mark.parametrize("spokes, spoke_width_px", [(5, 3), (5, 5), (10, 2)])
+def test_a_rim_whose_spokes_are_as_dark_as_the_tyre_is_found_from_the_gaps_between_them(spokes, spoke_width_px):
+    """Dark spokes cut a light rim into gaps, none of them the rim's shape: grouped, the gaps' hull is the rim. Its
+    ellipse against the same rim's without spokes (one hole, outlined by the tyre's pixels around it, as every rim
+    is): the centre within 0.5 px and the semi-axes within 1 px (the spokes' ends are chords of the outline); both
+    within 1.5 px of the drawn rim. Without the grouping no rim of that size is found."""
+    grey, mask, drawn = spoked_wheel(spokes, spoke_width_px)
+    plain = max((rim for rim, _, _ in rim_candidates(*spoked_wheel(0, 0)[:2], replace(PARAMS, spoked_rims=False))),
+                key=lambda rim: rim.semi_axes_px[0])  # one hole, found at each darkness level
+    found = [rim for rim, _, _ in rim_candidates(grey, mask, PARAMS)]
+    best = min(found, key=lambda rim: np.abs(rim.semi_axes_px - drawn.semi_axes_px).sum())
+    assert np.linalg.norm(best.centre_px - plain.centre_px) <= 0.5
+    assert np.abs(best.semi_axes_px - plain.semi_axes_px).max() <= 1.0
+    for rim in (best, plain):
+        assert np.abs(rim.semi_axes_px - drawn.semi_axes_px).max() <= 1.5
+    alone = [rim for rim, _, _ in rim_candidates(grey, mask, replace(PARAMS, spoked_rims=False))]
+    assert all(rim.semi_axes_px[0] < 0.8 * drawn.semi_axes_px[0] for rim in alone)
 
 
 def test_no_wheels_in_an_empty_mask():

@@ -207,9 +207,10 @@ def rim_candidates(
 
 def spoked_rims(holes: list[np.ndarray], shape: tuple[int, int], spoke_px: float) -> list[np.ndarray]:
     """The outlines of rims whose spokes are as dark as the tyre: the gaps between the spokes are holes of their own,
-    none the rim's shape; holes at most two `spoke_px` apart are grouped, and each group of two or more gives the
-    convex hull of its holes (the rim, its spokes' ends on the hull)."""
-    if len(holes) < 2:
+    none the rim's shape; holes at most two `spoke_px` apart are grouped, and each group of three or more, none of
+    them a third of the group's convex hull, gives that hull (the rim, its spokes' ends on it): a rim's own hole
+    beside a few specks is no spoked rim."""
+    if len(holes) < 3:
         return []
     canvas = np.zeros(shape, np.uint8)
     cv2.drawContours(canvas, holes, -1, 1, cv2.FILLED)
@@ -220,7 +221,12 @@ def spoked_rims(holes: list[np.ndarray], shape: tuple[int, int], spoke_px: float
     for hole in holes:
         x, y = hole[0, 0]
         groups.setdefault(int(labels[y, x]), []).append(hole)
-    return [cv2.convexHull(np.concatenate(group)) for group in groups.values() if len(group) >= 2]
+    rims = []
+    for group in groups.values():
+        hull = cv2.convexHull(np.concatenate(group))
+        if len(group) >= 3 and max(cv2.contourArea(hole) for hole in group) < cv2.contourArea(hull) / 3:
+            rims.append(hull)
+    return rims
 
 
 def best_per_place(found: list[tuple]) -> list[tuple]:
