@@ -196,15 +196,15 @@ def test_a_rim_whose_spokes_are_as_dark_as_the_tyre_is_found_from_the_gaps_betwe
     is): the centre within 0.5 px and the semi-axes within 1 px (the spokes' ends are chords of the outline); both
     within 1.5 px of the drawn rim. Without the grouping no rim of that size is found."""
     grey, mask, drawn = spoked_wheel(spokes, spoke_width_px)
-    plain = max((rim for rim, _, _ in rim_candidates(*spoked_wheel(0, 0)[:2], replace(PARAMS, spoked_rims=False))),
+    plain = max((rim for rim, _, _ in rim_candidates(*spoked_wheel(0, 0)[:2], PARAMS)),
                 key=lambda rim: rim.semi_axes_px[0])  # one hole, found at each darkness level
-    found = [rim for rim, _, _ in rim_candidates(grey, mask, PARAMS)]
+    found = [rim for rim, _, _ in rim_candidates(grey, mask, PARAMS, spoked=True)]
     best = min(found, key=lambda rim: np.abs(rim.semi_axes_px - drawn.semi_axes_px).sum())
     assert np.linalg.norm(best.centre_px - plain.centre_px) <= 0.5
     assert np.abs(best.semi_axes_px - plain.semi_axes_px).max() <= 1.0
     for rim in (best, plain):
         assert np.abs(rim.semi_axes_px - drawn.semi_axes_px).max() <= 1.5
-    alone = [rim for rim, _, _ in rim_candidates(grey, mask, replace(PARAMS, spoked_rims=False))]
+    alone = [rim for rim, _, _ in rim_candidates(grey, mask, PARAMS)]
     assert all(rim.semi_axes_px[0] < 0.8 * drawn.semi_axes_px[0] for rim in alone)
 
 

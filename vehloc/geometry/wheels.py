@@ -13,6 +13,8 @@ ends above a lighter shadow, the tyre's outer face touches the road; the tyre's 
 lies half a tyre width further in, across the wheel's plane on the road, away from the camera. A wheel may show
 as a hole at several levels (a grey rim's hub alone at the loosest); per place the largest rim stands. Of the
 wheels found, the best pair a wheelbase apart on a line along both wheels' planes is kept (a lone wheel otherwise).
+Where that gives no pair, rims whose spokes are as dark as the tyre are tried too: no gap between their spokes has
+the rim's shape, but the hull of the gaps has.
 """
 
 from __future__ import annotations
@@ -174,12 +176,13 @@ def lower_part(mask: np.ndarray, fraction: float) -> np.ndarray:
 
 
 def rim_candidates(
-    roi_grey: np.ndarray, mask: np.ndarray, params: WheelParams
+    roi_grey: np.ndarray, mask: np.ndarray, params: WheelParams, spoked: bool = False
 ) -> list[tuple[Ellipse, float, np.ndarray]]:
     """Ellipses fitted to the outlines of the holes in the tyre-dark pixels of the silhouette's lower part, at each
     darkness level (dark rims need a low one), with how well each hole fills its ellipse (intersection over
     union) and that level's dark pixels. A wheel may give a hole at several levels (its rim at a low one, only its
-    hub at a higher one, where a grey rim counts as dark): all are kept, to be measured as wheels."""
+    hub at a higher one, where a grey rim counts as dark): all are kept, to be measured as wheels. With `spoked`,
+    the outlines of spoked rims grouped from their gaps (`spoked_rims`) are tried too."""
     band = lower_part(mask, params.band_fraction)
     darkest = np.percentile(roi_grey[lower_part(mask, params.dark_band_fraction)], params.dark_percentile)
     rims: list[tuple[Ellipse, float, np.ndarray]] = []
@@ -188,7 +191,7 @@ def rim_candidates(
         contours, hierarchy = cv2.findContours(dark, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
         holes = [contour for contour, (_, _, _, parent) in zip(contours, hierarchy[0] if hierarchy is not None else [])
                  if parent >= 0]
-        outlines = holes + (spoked_rims(holes, dark.shape, params.min_rim_px) if params.spoked_rims else [])
+        outlines = holes + (spoked_rims(holes, dark.shape, params.min_rim_px) if spoked else [])
         for outline in outlines:
             if len(outline) < 5:
                 continue
@@ -343,12 +346,30 @@ def detect_wheels(
     mask = np.asarray(mask, dtype=bool)
     if not mask.any():
         return None
+    wheels = _detect_wheels(roi_bgr, mask, offset_px, road_to_image, camera_foot_mm, params, spoked=False)
+    if params.spoked_rims and (wheels is None or len(wheels.wheels) < 2):
+        spoked = _detect_wheels(roi_bgr, mask, offset_px, road_to_image, camera_foot_mm, params, spoked=True)
+        if spoked is not None and (wheels is None or len(spoked.wheels) > len(wheels.wheels)):
+            wheels = spoked
+    return wheels
+
+
+def _detect_wheels(
+    roi_bgr: np.ndarray,
+    mask: np.ndarray,
+    offset_px: np.ndarray,
+    road_to_image: ProjectiveTransform,
+    camera_foot_mm: np.ndarray,
+    params: WheelParams,
+    spoked: bool,
+) -> Wheels | None:
+    """`detect_wheels` from the rims found as holes, and with `spoked` from the spoked rims too."""
     offset = np.asarray(offset_px, dtype=float)
     foot = np.asarray(camera_foot_mm, dtype=float)
     vertical_vp = road_to_image.homogeneous(foot)[0]
     horizon = road_to_image.map_lines(np.array([0.0, 0.0, 1.0]))[0]
     grey = cv2.cvtColor(roi_bgr, cv2.COLOR_BGR2GRAY).astype(np.float32)
-    found = best_per_place([measured for roi_rim, overlap, dark in rim_candidates(grey, mask, params)
+    found = best_per_place([measured for roi_rim, overlap, dark in rim_candidates(grey, mask, params, spoked)
                             if (measured := measure_wheel(Ellipse(roi_rim.centre_px + offset, roi_rim.semi_axes_px,
                                                                   roi_rim.angle_deg), overlap, dark, grey, mask,
                                                           offset, vertical_vp, horizon, road_to_image, params))])
