@@ -346,33 +346,31 @@ def detect_wheels(
     mask = np.asarray(mask, dtype=bool)
     if not mask.any():
         return None
-    wheels = _detect_wheels(roi_bgr, mask, offset_px, road_to_image, camera_foot_mm, params, spoked=False)
-    if params.spoked_rims and (wheels is None or len(wheels.wheels) < 2):
-        spoked = _detect_wheels(roi_bgr, mask, offset_px, road_to_image, camera_foot_mm, params, spoked=True)
-        if spoked is not None and (wheels is None or len(spoked.wheels) > len(wheels.wheels)):
-            wheels = spoked
-    return wheels
-
-
-def _detect_wheels(
-    roi_bgr: np.ndarray,
-    mask: np.ndarray,
-    offset_px: np.ndarray,
-    road_to_image: ProjectiveTransform,
-    camera_foot_mm: np.ndarray,
-    params: WheelParams,
-    spoked: bool,
-) -> Wheels | None:
-    """`detect_wheels` from the rims found as holes, and with `spoked` from the spoked rims too."""
     offset = np.asarray(offset_px, dtype=float)
     foot = np.asarray(camera_foot_mm, dtype=float)
     vertical_vp = road_to_image.homogeneous(foot)[0]
     horizon = road_to_image.map_lines(np.array([0.0, 0.0, 1.0]))[0]
     grey = cv2.cvtColor(roi_bgr, cv2.COLOR_BGR2GRAY).astype(np.float32)
-    found = best_per_place([measured for roi_rim, overlap, dark in rim_candidates(grey, mask, params, spoked)
-                            if (measured := measure_wheel(Ellipse(roi_rim.centre_px + offset, roi_rim.semi_axes_px,
-                                                                  roi_rim.angle_deg), overlap, dark, grey, mask,
-                                                          offset, vertical_vp, horizon, road_to_image, params))])
+
+    def wheels_from(spoked: bool) -> Wheels | None:
+        return paired_wheels(best_per_place([
+            measured for roi_rim, overlap, dark in rim_candidates(grey, mask, params, spoked)
+            if (measured := measure_wheel(Ellipse(roi_rim.centre_px + offset, roi_rim.semi_axes_px, roi_rim.angle_deg),
+                                          overlap, dark, grey, mask, offset, vertical_vp, horizon, road_to_image, params))
+        ]), road_to_image, foot, params)
+
+    wheels = wheels_from(spoked=False)
+    if params.spoked_rims and (wheels is None or len(wheels.wheels) < 2):
+        spoked = wheels_from(spoked=True)
+        if spoked is not None and (wheels is None or len(spoked.wheels) > len(wheels.wheels)):
+            wheels = spoked
+    return wheels
+
+
+def paired_wheels(found: list[tuple], road_to_image: ProjectiveTransform, foot: np.ndarray,
+                  params: WheelParams) -> Wheels | None:
+    """Of the measured wheels (one per place), the best pair a wheelbase apart (or a lone wheel not of the nominal
+    tyre), each with its tyre's contact half a tyre width inside its outer face; None when there is none."""
     if not found:
         return None
     outer_mm = road_to_image.inverse(np.array([item[2] for item in found]))
