@@ -7,6 +7,7 @@ from __future__ import annotations
 import copy
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -31,7 +32,9 @@ def test_the_highway_experiment_sets_its_settings_and_no_other() -> None:
     default, highway = LocalizeSettings.compose(), LocalizeSettings.compose(["experiment=highway"])
     assert highway.pipeline == PipelineParams.from_config(every_frame=True, fit_from_travel=True)
     assert highway.roi == RoiParams.from_config(scale=1.0, close_kernel_px=5, min_area_fraction=0.002)
-    assert (highway.tracker, highway.detectors, highway.fit) == (default.tracker, default.detectors, default.fit)
+    assert highway.detectors.wheels == replace(default.detectors.wheels, spoked_rims=False)
+    assert replace(highway.detectors, wheels=default.detectors.wheels) == default.detectors
+    assert (highway.tracker, highway.fit) == (default.tracker, default.fit)
     assert default.pipeline.every_frame is False and default.roi.min_area_fraction == 0.001
 
 
