@@ -7,7 +7,6 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
-import scipy.io
 
 from vehloc.errors import DataError
 
@@ -27,6 +26,8 @@ def _cell_to_names(cell: np.ndarray) -> dict[int, str]:
 
 def read_make_model_names(path: Path) -> tuple[dict[int, str], dict[int, str]]:
     """Read `make_names` and `model_names` as {1-based id: name}."""
+    import scipy.io  # on first use: a refused CLI answers sooner
+
     try:
         content = scipy.io.loadmat(str(path))
     except Exception as exc:  # scipy raises several unrelated types for corrupt files
@@ -46,6 +47,8 @@ def _as_cell(names: Sequence[str]) -> np.ndarray:
 
 def write_make_model_names(path: Path, make_names: Sequence[str], model_names: Sequence[str]) -> None:
     """Write the names as MATLAB cell arrays; the same names always give the same bytes."""
+    import scipy.io  # on first use: a refused CLI answers sooner
+
     buffer = io.BytesIO()
     scipy.io.savemat(buffer, {"make_names": _as_cell(make_names), "model_names": _as_cell(model_names)})
     data = bytearray(buffer.getvalue())

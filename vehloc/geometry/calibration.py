@@ -13,7 +13,6 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from scipy.spatial import cKDTree
 
 from vehloc.config import params_from_config
 from vehloc.geometry.camera import PinholeCamera
@@ -117,6 +116,7 @@ class Calibration:
 def unambiguous_gates_px(projected_px: np.ndarray, gate_px: float, fraction: float = 0.4) -> np.ndarray:
     """Per-point gate: at most `fraction` of the distance to the nearest other projected point, so that
     a rough estimate cannot pair a marker with its periodic neighbour (the next dash along the road)."""
+    from scipy.spatial import cKDTree  # scipy on first use: a refused CLI answers sooner
     finite = np.all(np.isfinite(projected_px), axis=1)
     gates = np.full(len(projected_px), gate_px)
     if finite.sum() > 1:
@@ -130,6 +130,7 @@ def match_points(
 ) -> list[tuple[int, int]]:
     """Mutual nearest-neighbour pairs (projected index, detected index) closer than the gate
     (one gate, or one per projected point)."""
+    from scipy.spatial import cKDTree  # scipy on first use: a refused CLI answers sooner
     finite = np.all(np.isfinite(projected_px), axis=1)
     if not finite.any() or len(detected_px) == 0:
         return []

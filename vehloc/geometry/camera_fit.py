@@ -7,7 +7,6 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from scipy.optimize import least_squares
 
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.projective import ProjectiveTransform
@@ -60,6 +59,7 @@ class PinholeHomography:
     def fit_points(self, world_mm: np.ndarray, image_px: np.ndarray) -> np.ndarray:
         """Least-squares camera for >= 4 road-image correspondences, started from the best of a
         sweep of focal lengths (planar pose by IPPE at each)."""
+        from scipy.optimize import least_squares  # scipy on first use: a refused CLI answers sooner
         object_points = np.column_stack([world_mm, np.zeros(len(world_mm))]).astype(np.float64)
         image_points = np.asarray(image_px, dtype=np.float64)
         best: tuple[float, np.ndarray] | None = None

@@ -11,8 +11,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import map_coordinates
-from scipy.optimize import least_squares
 
 from vehloc.geometry.camera_fit import FreeHomography, PinholeHomography
 from vehloc.geometry.projective import ProjectiveTransform
@@ -39,6 +37,7 @@ def world_line(start_mm: np.ndarray, end_mm: np.ndarray) -> np.ndarray:
 
 
 def _profile(grey: np.ndarray, centre_px: np.ndarray, direction: np.ndarray, reach_px: float) -> tuple[np.ndarray, np.ndarray]:
+    from scipy.ndimage import map_coordinates  # scipy on first use: a refused CLI answers sooner
     offsets = np.linspace(-reach_px, reach_px, max(15, int(8 * reach_px)))
     samples = centre_px + offsets[:, None] * direction
     return offsets, map_coordinates(grey, [samples[:, 1], samples[:, 0]], order=1, mode="nearest")
@@ -170,6 +169,7 @@ def refine_on_edges(
     directions the edges leave free (an anchor off by its sigma weighs like one edge point off by
     the robust scale). `model` parametrises H (free by default, or a pinhole camera). Returns the
     refined transform and the median absolute edge distance (px)."""
+    from scipy.optimize import least_squares  # scipy on first use: a refused CLI answers sooner
     if not edges:
         return road_to_image, None
     world_lines = np.concatenate([np.repeat(line[None], len(points), 0) for line, points in edges])

@@ -12,7 +12,6 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from scipy.ndimage import map_coordinates
 
 from vehloc.config import params_from_config
 
@@ -111,6 +110,7 @@ def _edge_points_of_side(
     params: MarkerDetectionParams,
 ) -> np.ndarray:
     """Sub-pixel points where intensity crosses half-way between paint and asphalt along one side."""
+    from scipy.ndimage import map_coordinates  # scipy on first use: a refused CLI answers sooner
     length_px = np.linalg.norm(end_px - start_px)
     samples = max(3, min(params.profile_samples_per_side, int(length_px)))
     margin = 0.15 if length_px >= params.min_fitted_side_px else 0.3  # keep off the blurred corners

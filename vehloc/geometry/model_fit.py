@@ -10,7 +10,6 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from scipy.optimize import minimize
 
 from vehloc.config import check_range, params_from_config
 from vehloc.data.boxes import Box
@@ -109,6 +108,7 @@ def fit_model(
     `roi`: `weights`, a (roi height, roi width) array in [0, 1] (a bool mask, or how sure each pixel is),
     starting from `start`; with `fit_heading` false only the position moves, the heading stays `start`'s
     (or its reverse)."""
+    from scipy.optimize import minimize  # scipy on first use: a refused CLI answers sooner
     params = params or FitParams.from_config()
     ss = params.supersample
     target = supersampled(weights, roi, ss)

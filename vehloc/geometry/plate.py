@@ -25,7 +25,6 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from scipy.ndimage import map_coordinates
 
 from vehloc.config import check_interval, check_range, params_from_config
 from vehloc.geometry.silhouette import PIXEL_CORNERS
@@ -214,6 +213,7 @@ def edge_outwards(
     being on it), interpolated between samples: fitted to them on a side of `min_fitted_px` or more, else parallel
     to the side at their median offset; and the median distance (px) of the points from it. None when fewer than
     half the profiles leave the plate."""
+    from scipy.ndimage import map_coordinates  # scipy on first use: a refused CLI answers sooner
     direction = (end_px - start_px) / np.linalg.norm(end_px - start_px)
     outward = np.array([direction[1], -direction[0]])  # corners clockwise on screen: the right-hand normal points out
     samples = max(3, int(np.linalg.norm(end_px - start_px)))
@@ -267,6 +267,7 @@ def plate_corners(
 def middle_row_crossings(grey: np.ndarray, corners_px: np.ndarray) -> int:
     """How often a row through the middle of the quadrilateral, from its left to its right side, crosses its own
     mean intensity: twice per character."""
+    from scipy.ndimage import map_coordinates  # scipy on first use: a refused CLI answers sooner
     left, right = (corners_px[0] + corners_px[3]) / 2, (corners_px[1] + corners_px[2]) / 2
     samples = max(8, int(np.ceil(4 * np.linalg.norm(right - left))))
     points = left + np.linspace(0.1, 0.9, samples)[:, None] * (right - left)

@@ -23,7 +23,6 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from scipy.ndimage import map_coordinates
 
 from vehloc.config import check_interval, check_range, params_from_config
 from vehloc.geometry.projective import ProjectiveTransform
@@ -158,6 +157,7 @@ def vertical_diameter(rim: Ellipse, vertical_vp: np.ndarray, horizon: np.ndarray
 def ground_crossing_px(mask: np.ndarray, start_px: np.ndarray, direction: np.ndarray, reach_px: float) -> float | None:
     """How far (px) from `start_px` along `direction` the silhouette ends: half-way between the last mask sample
     and the first one outside it, sampling every quarter pixel; None when it does not end within `reach_px`."""
+    from scipy.ndimage import map_coordinates  # scipy on first use: a refused CLI answers sooner
     steps = np.arange(0.0, reach_px, 0.25)
     points = start_px + steps[:, None] * direction
     inside = map_coordinates(mask.astype(np.float32), [points[:, 1], points[:, 0]], order=0, mode="constant") > 0.5
@@ -276,6 +276,7 @@ def measure_wheel(
     rim, the tyre between them is not dark, or the tyre is not wheel-sized. The ground is where the silhouette ends
     below the rim, or sooner where the tyre ends above a lighter shadow that the silhouette holds: where the ROI's
     `grey` first rises `tyre_end_contrast` above the tyre's own level (the lower quartile between rim and ground)."""
+    from scipy.ndimage import map_coordinates  # scipy on first use: a refused CLI answers sooner
     line, horizontal_vp = vertical_diameter(rim, vertical_vp, horizon)
     line = line / np.hypot(line[0], line[1])
     direction = np.array([line[1], -line[0]]) * (1.0 if -line[0] >= 0 else -1.0)  # down the image
