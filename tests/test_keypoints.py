@@ -168,3 +168,57 @@ def test_a_wheel_placement_moved_between_the_axles_puts_their_middle_on_q(headin
     near_side_at_axles = moved.centre_mm + moved.forward * 200.0 - inward_dir * moved.width_mm / 2
     assert np.allclose(near_side_at_axles, q_mm, atol=1e-9)
     assert (moved.heading_deg, moved.length_mm, moved.width_mm) == (box.heading_deg, box.length_mm, box.width_mm)
+
+
+def _silhouette_mask(camera: PinholeCamera, box, height_mm: float) -> np.ndarray:
+    """The frame's pixels covered by a cuboid standing on the box's footprint."""
+    import cv2
+
+    corners = box.corners_mm()
+    points = camera.project(np.vstack([np.c_[corners, np.zeros(4)], np.c_[corners, np.full(4, height_mm)]]))
+    mask = np.zeros((camera.height_px, camera.width_px), np.uint8)
+    cv2.fillConvexPoly(mask, np.round(cv2.convexHull(points.astype(np.float32))).astype(np.int32), 1)
+    return mask.astype(bool)
+
+
+@pytest.mark.parametrize("heading_deg", [15.0, 100.0, 200.0])
+@pytest.mark.parametrize("axle", [-1.0, 1.0])
+def test_one_wheel_puts_q_half_a_wheelbase_from_it_towards_the_body(camera: PinholeCamera, heading_deg: float,
+                                                                     axle: float) -> None:
+    """The near side's front or rear outer tyre contact of a box whose axles' middle is its centre, imaged
+    exactly, and the true length axis: the box is placed on that centre within 1e-6 mm and along that axis (the
+    body's silhouette, a cuboid, says which way the other axle lies)."""
+    from vehloc.data.specs import VehicleSpec
+    from vehloc.geometry.keypoints import one_wheel_placement
+    from vehloc.geometry.placement import VehicleBox, axis_difference_deg
+
+    spec = VehicleSpec(9, "Make", "Model", 4800.0, 1850.0, 1450.0, 2800.0)
+    truth = VehicleBox(np.array([800.0, 11000.0]), heading_deg, spec.length_mm, spec.width_mm)
+    along, across = direction_of(heading_deg), direction_of(heading_deg + 90.0)
+    sides = [truth.centre_mm + sign * across * spec.width_mm / 2 for sign in (-1.0, 1.0)]
+    near = min(sides, key=lambda p: np.linalg.norm(p - camera.centre_mm[:2]))
+    contact_px = camera.project(np.array([[*(near + axle * along * spec.wheelbase_mm / 2), 0.0]]))[0]
+    calibration = CameraCalibration(camera.road_to_image(), (camera.width_px, camera.height_px), camera, 0.0, "exact")
+    mask = _silhouette_mask(camera, truth, spec.height_mm)
+    placed = one_wheel_placement(contact_px, heading_deg % 180.0, mask, np.zeros(2), calibration, spec, 0.1)
+    assert placed.kind == "wheel"
+    np.testing.assert_allclose(placed.box.centre_mm, truth.centre_mm, atol=1e-6)
+    assert abs(axis_difference_deg(placed.box.heading_deg, heading_deg)) < 1e-9
+
+
+def test_one_wheel_whose_box_leaves_the_silhouette_is_no_placement(camera: PinholeCamera) -> None:
+    """A 'wheel' 4 m ahead of the body (a contact no wheel of it has): its box would reach beyond the silhouette's
+    bounding box grown by a tenth, so it is not placed, and the reason says by how far."""
+    from vehloc.data.specs import VehicleSpec
+    from vehloc.geometry.keypoints import one_wheel_placement
+    from vehloc.geometry.outcome import NotPlaced
+    from vehloc.geometry.placement import VehicleBox
+
+    spec = VehicleSpec(9, "Make", "Model", 4800.0, 1850.0, 1450.0, 2800.0)
+    truth = VehicleBox(np.array([800.0, 11000.0]), 15.0, spec.length_mm, spec.width_mm)
+    ahead_mm = truth.centre_mm + direction_of(15.0) * (spec.length_mm / 2 + 4000.0)
+    contact_px = camera.project(np.array([[*ahead_mm, 0.0]]))[0]
+    calibration = CameraCalibration(camera.road_to_image(), (camera.width_px, camera.height_px), camera, 0.0, "exact")
+    placed = one_wheel_placement(contact_px, 15.0, _silhouette_mask(camera, truth, spec.height_mm), np.zeros(2),
+                                 calibration, spec, 0.1)
+    assert isinstance(placed, NotPlaced) and "px beyond the vehicle's silhouette" in placed.message

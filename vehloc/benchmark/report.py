@@ -66,7 +66,7 @@ def with_groups(cases: pd.DataFrame) -> pd.DataFrame:
     correct = frame["correct"].astype(bool) & frame["localized"].astype(bool)
     frame["fit_within"] = np.where(correct, flag(frame, "fit_within"), np.nan)
     visible = frame["key_points_visible"].astype(bool)
-    found = frame["key_point"].fillna("").astype(str).isin(["plate", "wheels"])
+    found = frame["key_point"].fillna("").astype(str).isin(["plate", "wheels", "wheel"])
     frame["key_points_found"] = np.where(visible, found.astype(float), np.nan)
     frame["paper_within"] = np.where(visible, flag(frame, "paper_within"), np.nan)
     return frame

@@ -13,7 +13,8 @@ no plate is taken: the two near tyres' contacts on the side line l_S (the outer 
 road, where l_S touches the tyres; taken from the tyres themselves, as a shadow beside the car can push the
 silhouette's l_S outwards; l_S's direction is the one from contact to contact), Q their middle on the road,
 C perpendicular to l_S, into the vehicle; the box's near side is stuck to Q_W between the axles with its
-short centreline along Q_W C_W.
+short centreline along Q_W C_W. Where one wheel is found (`wheels.one_wheel`), Q lies half the predicted model's
+wheelbase from its contact along l_S, on the side the body reaches to, and l_S gives the direction (branch `wheel`).
 """
 
 from __future__ import annotations
@@ -206,7 +207,7 @@ def _placement(
     if plate is not None and not plate.small:
         return _plate_placement(plate, roi_bgr, silhouette, offset, calibration, spec, shape, params, visible_end)
     wheels = _wheel_placement(roi_bgr, silhouette, offset, calibration, spec, params, not_a_plate)
-    if plate is not None and isinstance(wheels, NotPlaced):  # a small plate gives way to two wheels
+    if plate is not None and (isinstance(wheels, NotPlaced) or wheels.kind == "wheel"):  # a small plate gives way to two wheels
         return _plate_placement(plate, roi_bgr, silhouette, offset, calibration, spec, shape, params, visible_end)
     return wheels
 
@@ -243,8 +244,13 @@ def _wheel_placement(
     if isinstance(lines, NotPlaced):
         return lines
     wheels = detect_wheels(roi_bgr, silhouette.mask, offset, road_to_image, foot, params.wheels)
+    if wheels is not None and len(wheels.wheels) == 1 and params.wheels.one_wheel and spec.wheelbase_mm:
+        return one_wheel_placement(wheels.wheels[0].outer_contact_px, lines.length_heading_deg, silhouette.mask, offset,
+                                   calibration, spec, params.wheels.one_wheel_margin_fraction)
     if wheels is None or len(wheels.wheels) < 2:
         found = "one wheel" if wheels is not None else "no wheel"
+        if wheels is not None and params.wheels.one_wheel:
+            found += ", and the model has no wheelbase to place it by"
         return NotPlaced(ReasonCode.NO_KEY_POINTS, f"neither a licence plate nor two wheels found (found {found}"
                                                    f"{'' if not_a_plate is None else '; ' + not_a_plate})")
     contacts_px = np.array([w.outer_contact_px for w in wheels.wheels])
@@ -253,6 +259,51 @@ def _wheel_placement(
     into = inward(heading_of(contacts_mm[1] - contacts_mm[0]) + 90.0, q_mm, foot)
     box = place_on_side(q_mm, into, spec.length_mm, spec.width_mm)
     return Placement(box, "wheels", q_mm, q_mm + C_DISTANCE_MM * into, float(np.linalg.norm(contacts_mm[1] - contacts_mm[0])))
+
+
+def one_wheel_placement(contact_px: np.ndarray, length_heading_deg: float, mask: np.ndarray, offset: np.ndarray,
+                        calibration: CameraCalibration, spec: VehicleSpec, margin_fraction: float) -> Placement | NotPlaced:
+    """One wheel found (the module's docstring): Q half the model's wheelbase from its outer contact (`contact_px`,
+    frame px) along the side line l_S (`length_heading_deg`), towards the far end of the silhouette's bottom edge mapped to the road (the body
+    reaches past the wheel to the other axle, and only an overhang the other way); C perpendicular, into the vehicle. Not placed when the box's footprint reaches beyond the silhouette's
+    bounding box grown by `margin_fraction` (a far side's wheel, or the body's bottom edge misread)."""
+    road_to_image, foot = calibration.road_to_image, calibration.camera.centre_mm[:2]
+    t_mm = road_to_image.inverse.map_visible(np.asarray(contact_px, dtype=float)[None], "tyre contact")[0]
+    along = direction_of(length_heading_deg)
+    bottom_mm = road_to_image.inverse.map_visible(bottom_edge_px(mask) + offset, "the silhouette's bottom edge")
+    reach_mm = np.percentile((bottom_mm - t_mm) @ along, [5.0, 95.0])
+    if reach_mm[1] < -reach_mm[0]:
+        along = -along
+    q_mm = t_mm + along * spec.wheelbase_mm / 2
+    into = inward(length_heading_deg + 90.0, q_mm, foot)
+    box = place_on_side(q_mm, into, spec.length_mm, spec.width_mm)
+    outside = footprint_outside_silhouette(box, road_to_image, mask, offset, margin_fraction)
+    if outside is not None:
+        return NotPlaced(ReasonCode.NO_KEY_POINTS, f"neither a licence plate nor two wheels found (found one wheel, "
+                                                   f"whose placement {outside})")
+    return Placement(box, "wheel", q_mm, q_mm + C_DISTANCE_MM * into, spec.wheelbase_mm / 2)
+
+
+def footprint_outside_silhouette(box: VehicleBox, road_to_image: ProjectiveTransform, mask: np.ndarray,
+                                 offset: np.ndarray, margin_fraction: float) -> str | None:
+    """Why a box's footprint does not lie in the silhouette's bounding box grown by `margin_fraction` of its size
+    each way (the footprint is under the body seen), or None when it does."""
+    rows, columns = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    low = np.array([columns[0], rows[0]], float) + offset
+    high = np.array([columns[-1] + 1, rows[-1] + 1], float) + offset
+    grown = margin_fraction * (high - low)
+    corners_px = road_to_image(box.corners_mm())
+    beyond = np.maximum(low - grown - corners_px, corners_px - high - grown).max(axis=1)
+    if beyond.max() <= 0:
+        return None
+    return f"reaches {beyond.max():.0f} px beyond the vehicle's silhouette"
+
+
+def bottom_edge_px(mask: np.ndarray) -> np.ndarray:
+    """The lowest pixel centre of each column of a mask that has one, (N, 2) px."""
+    columns = np.flatnonzero(mask.any(axis=0))
+    rows = mask.shape[0] - 1 - np.argmax(mask[::-1, columns], axis=0)
+    return np.column_stack([columns, rows]).astype(float)
 
 
 def _footprint_lines(roi_bgr: np.ndarray, mask: np.ndarray, offset: np.ndarray, calibration: CameraCalibration,

@@ -64,8 +64,13 @@ def calibration_part(rms_reprojection_px: float, mm_per_px: float, baseline_mm: 
 def paper_dimension_part(kind: str, spread_mm: np.ndarray) -> tuple[float, float]:
     """The model doubt's share of the paper's placement: the plate branch puts the centre half a length from
     the end (sigma_L / 2), the wheel branch half a width from the side (sigma_W / 2); the heading comes from
-    the footprint lines, not from the dimensions."""
-    return (float(spread_mm[0]) / 2 if kind == "plate" else float(spread_mm[1]) / 2), 0.0
+    the footprint lines, not from the dimensions. From one wheel (`wheel`) half a wheelbase along the side too, its
+    doubt taken as the length's."""
+    if kind == "plate":
+        return float(spread_mm[0]) / 2, 0.0
+    if kind == "wheel":
+        return float(np.hypot(spread_mm[0], spread_mm[1])) / 2, 0.0
+    return float(spread_mm[1]) / 2, 0.0
 
 
 def fitted_spread(boxes: list[VehicleBox], weights: np.ndarray) -> tuple[float, float]:

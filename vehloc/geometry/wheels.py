@@ -41,6 +41,8 @@ class WheelParams:
     min_axis_ratio: float
     min_ellipse_overlap: float
     spoked_rims: bool
+    one_wheel: bool
+    one_wheel_margin_fraction: float
     tyre_to_rim_range: tuple[float, float]
     min_dark_tyre: float
     tyre_end_contrast: float
@@ -68,6 +70,7 @@ class WheelParams:
         check_interval("wheelbase_range_mm", self.wheelbase_range_mm, 0.0, low_open=True)
         check_range("pair_tolerance_deg", self.pair_tolerance_deg, 0.0, 90.0)
         check_range("min_score", self.min_score, 0.0, 1.0)
+        check_range("one_wheel_margin_fraction", self.one_wheel_margin_fraction, 0.0)
 
     @classmethod
     def from_config(cls, **overrides: object) -> WheelParams:

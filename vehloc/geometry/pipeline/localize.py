@@ -301,7 +301,7 @@ class Localizer:
         if came_deg is None:
             return placement.box
         box = facing(placement.box, came_deg)
-        if placement.kind == "wheels" and self.params.wheels_at_axles:
+        if placement.kind in ("wheels", "wheel") and self.params.wheels_at_axles:
             return between_axles(box, shape.axle_middle_x_mm)
         return box
 
