@@ -19,12 +19,14 @@ from vehloc.geometry.uncertainty import (
 
 def test_dimension_spread_over_the_top_k():
     """Two models at 0.45 each (renormalised to 0.5) 1000 mm apart in length: sigma_L = 500 mm; the third,
-    beyond k = 2, does not count."""
+    beyond k = 2, does not count. The plate's placement doubts half of sigma_L, two wheels' half of sigma_W, one
+    wheel's both (its Q half a wheelbase along the side, the wheelbase's doubt taken as the length's)."""
     dims = np.array([[4000.0, 1800.0, 1400.0], [5000.0, 1800.0, 1600.0], [9000.0, 2500.0, 3000.0]])
     spread = dimension_spread_mm(np.array([0.45, 0.45, 0.10]), dims, top_k=2)
     np.testing.assert_allclose(spread, [500.0, 0.0, 100.0])
     assert paper_dimension_part("plate", spread) == (250.0, 0.0)
     assert paper_dimension_part("wheels", spread) == (0.0, 0.0)
+    assert paper_dimension_part("wheel", spread) == (250.0, 0.0)  # one wheel: half the length's doubt along the side
 
 
 def test_millimetres_per_pixel_of_a_camera_looking_down():

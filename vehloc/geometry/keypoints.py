@@ -204,10 +204,10 @@ def _placement(
     offset = np.array([roi.x0, roi.y0], dtype=float)
     plate, not_a_plate = plausible_plate(plate_candidates(roi_bgr, silhouette.mask, offset, params.plate),
                                          calibration, params.plate)
-    if plate is not None and not plate.small:
+    if plate is not None and not plate.small:  # a small plate gives way to two wheels ...
         return _plate_placement(plate, roi_bgr, silhouette, offset, calibration, spec, shape, params, visible_end)
     wheels = _wheel_placement(roi_bgr, silhouette, offset, calibration, spec, params, not_a_plate)
-    if plate is not None and (isinstance(wheels, NotPlaced) or wheels.kind == "wheel"):  # a small plate gives way to two wheels
+    if plate is not None and (isinstance(wheels, NotPlaced) or wheels.kind == "wheel"):  # ... to two wheels only
         return _plate_placement(plate, roi_bgr, silhouette, offset, calibration, spec, shape, params, visible_end)
     return wheels
 
@@ -264,9 +264,10 @@ def _wheel_placement(
 def one_wheel_placement(contact_px: np.ndarray, length_heading_deg: float, mask: np.ndarray, offset: np.ndarray,
                         calibration: CameraCalibration, spec: VehicleSpec, margin_fraction: float) -> Placement | NotPlaced:
     """One wheel found (the module's docstring): Q half the model's wheelbase from its outer contact (`contact_px`,
-    frame px) along the side line l_S (`length_heading_deg`), towards the far end of the silhouette's bottom edge mapped to the road (the body
-    reaches past the wheel to the other axle, and only an overhang the other way); C perpendicular, into the vehicle. Not placed when the box's footprint reaches beyond the silhouette's
-    bounding box grown by `margin_fraction` (a far side's wheel, or the body's bottom edge misread)."""
+    frame px) along the side line l_S (`length_heading_deg`), towards the far end of the silhouette's bottom edge
+    mapped to the road (the body reaches past the wheel to the other axle, only an overhang the other way); C
+    perpendicular, into the vehicle. Not placed when the box's footprint reaches beyond the silhouette's bounding
+    box grown by `margin_fraction` (a far side's wheel, or the body's bottom edge misread)."""
     road_to_image, foot = calibration.road_to_image, calibration.camera.centre_mm[:2]
     t_mm = road_to_image.inverse.map_visible(np.asarray(contact_px, dtype=float)[None], "tyre contact")[0]
     along = direction_of(length_heading_deg)
