@@ -34,6 +34,7 @@ from vehloc.geometry.plate import Plate, PlateParams, plate_candidates
 from vehloc.geometry.outcome import NotPlaced, ReasonCode
 from vehloc.geometry.projective import HorizonError, ProjectiveTransform
 from vehloc.geometry.roi import Silhouette
+from vehloc.geometry.silhouette_start import lower_outline_px
 from vehloc.geometry.camera_calibration import CameraCalibration
 from vehloc.geometry.wheels import WheelParams, detect_wheels
 
@@ -271,7 +272,7 @@ def one_wheel_placement(contact_px: np.ndarray, length_heading_deg: float, mask:
     road_to_image, foot = calibration.road_to_image, calibration.camera.centre_mm[:2]
     t_mm = road_to_image.inverse.map_visible(np.asarray(contact_px, dtype=float)[None], "tyre contact")[0]
     along = direction_of(length_heading_deg)
-    bottom_mm = road_to_image.inverse.map_visible(bottom_edge_px(mask) + offset, "the silhouette's bottom edge")
+    bottom_mm = road_to_image.inverse.map_visible(lower_outline_px(mask, offset), "the silhouette's bottom edge")
     reach_mm = np.percentile((bottom_mm - t_mm) @ along, [5.0, 95.0])
     if reach_mm[1] < -reach_mm[0]:
         along = -along
@@ -289,22 +290,14 @@ def footprint_outside_silhouette(box: VehicleBox, road_to_image: ProjectiveTrans
                                  offset: np.ndarray, margin_fraction: float) -> str | None:
     """Why a box's footprint does not lie in the silhouette's bounding box grown by `margin_fraction` of its size
     each way (the footprint is under the body seen), or None when it does."""
-    rows, columns = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-    low = np.array([columns[0], rows[0]], float) + offset
-    high = np.array([columns[-1] + 1, rows[-1] + 1], float) + offset
+    tight = Box.tight(mask)
+    low, high = np.array([tight.x0, tight.y0], float) + offset, np.array([tight.x1, tight.y1], float) + offset
     grown = margin_fraction * (high - low)
     corners_px = road_to_image(box.corners_mm())
     beyond = np.maximum(low - grown - corners_px, corners_px - high - grown).max(axis=1)
     if beyond.max() <= 0:
         return None
     return f"reaches {beyond.max():.0f} px beyond the vehicle's silhouette"
-
-
-def bottom_edge_px(mask: np.ndarray) -> np.ndarray:
-    """The lowest pixel centre of each column of a mask that has one, (N, 2) px."""
-    columns = np.flatnonzero(mask.any(axis=0))
-    rows = mask.shape[0] - 1 - np.argmax(mask[::-1, columns], axis=0)
-    return np.column_stack([columns, rows]).astype(float)
 
 
 def _footprint_lines(roi_bgr: np.ndarray, mask: np.ndarray, offset: np.ndarray, calibration: CameraCalibration,

@@ -178,37 +178,54 @@ def lower_part(mask: np.ndarray, fraction: float) -> np.ndarray:
     return part
 
 
-def rim_candidates(
-    roi_grey: np.ndarray, mask: np.ndarray, params: WheelParams, spoked: bool = False
-) -> list[tuple[Ellipse, float, np.ndarray]]:
-    """Ellipses fitted to the outlines of the holes in the tyre-dark pixels of the silhouette's lower part, at each
-    darkness level (dark rims need a low one), with how well each hole fills its ellipse (intersection over
-    union) and that level's dark pixels. A wheel may give a hole at several levels (its rim at a low one, only its
-    hub at a higher one, where a grey rim counts as dark): all are kept, to be measured as wheels. With `spoked`,
-    the outlines of spoked rims grouped from their gaps (`spoked_rims`) are tried too."""
+RimCandidate = tuple[Ellipse, float, np.ndarray]
+"""A rim fitted to an outline (ROI px), how well the outline fills it (IoU) and its darkness level's dark pixels."""
+
+
+def dark_levels(roi_grey: np.ndarray, mask: np.ndarray, params: WheelParams) -> list[tuple[np.ndarray, list[np.ndarray]]]:
+    """Per darkness level (dark rims need a low one): the tyre-dark pixels (uint8) of the silhouette's lower part
+    and the outlines of the holes in them."""
     band = lower_part(mask, params.band_fraction)
     darkest = np.percentile(roi_grey[lower_part(mask, params.dark_band_fraction)], params.dark_percentile)
-    rims: list[tuple[Ellipse, float, np.ndarray]] = []
+    levels = []
     for contrast in params.dark_contrasts:
         dark = (band & (roi_grey <= darkest + contrast)).astype(np.uint8)
         contours, hierarchy = cv2.findContours(dark, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
         holes = [contour for contour, (_, _, _, parent) in zip(contours, hierarchy[0] if hierarchy is not None else [])
                  if parent >= 0]
-        outlines = holes + (spoked_rims(holes, dark.shape, params.min_rim_px) if spoked else [])
-        for outline in outlines:
-            if len(outline) < 5:
-                continue
-            rim = Ellipse.from_rotated_rect(cv2.fitEllipse(outline.astype(np.float32)))
-            minor, major = rim.semi_axes_px[1], rim.semi_axes_px[0]
-            if minor < params.min_rim_px or minor < params.min_axis_ratio * major:
-                continue
-            hole = np.zeros_like(dark)
-            cv2.drawContours(hole, [outline], -1, 1, cv2.FILLED)
-            inside = rim.mask(dark.shape)
-            overlap = np.count_nonzero(inside & hole.astype(bool)) / np.count_nonzero(inside | hole.astype(bool))
-            if overlap >= params.min_ellipse_overlap:
-                rims.append((rim, overlap, dark.astype(bool)))
+        levels.append((dark, holes))
+    return levels
+
+
+def rim_fits(outlines: list[np.ndarray], dark: np.ndarray, params: WheelParams) -> list[RimCandidate]:
+    """The ellipses fitted to outlines in one level's `dark` pixels that are rim-sized, round enough and filled by
+    their outline (`min_ellipse_overlap`), each with that overlap and the level's dark pixels."""
+    rims: list[RimCandidate] = []
+    for outline in outlines:
+        if len(outline) < 5:
+            continue
+        rim = Ellipse.from_rotated_rect(cv2.fitEllipse(outline.astype(np.float32)))
+        minor, major = rim.semi_axes_px[1], rim.semi_axes_px[0]
+        if minor < params.min_rim_px or minor < params.min_axis_ratio * major:
+            continue
+        hole = np.zeros_like(dark)
+        cv2.drawContours(hole, [outline], -1, 1, cv2.FILLED)
+        inside = rim.mask(dark.shape)
+        overlap = np.count_nonzero(inside & hole.astype(bool)) / np.count_nonzero(inside | hole.astype(bool))
+        if overlap >= params.min_ellipse_overlap:
+            rims.append((rim, overlap, dark.astype(bool)))
     return rims
+
+
+def rim_candidates(roi_grey: np.ndarray, mask: np.ndarray, params: WheelParams, spoked: bool = False) -> list[RimCandidate]:
+    """Ellipses fitted to the outlines of the holes in the tyre-dark pixels of the silhouette's lower part, at each
+    darkness level, with how well each hole fills its ellipse (intersection over union) and that level's dark
+    pixels. A wheel may give a hole at several levels (its rim at a low one, only its hub at a higher one, where a
+    grey rim counts as dark): all are kept, to be measured as wheels. With `spoked`, the outlines of spoked rims
+    grouped from their gaps (`spoked_rims`) are tried too, after each level's holes."""
+    return [candidate for dark, holes in dark_levels(roi_grey, mask, params)
+            for candidate in rim_fits(holes + (spoked_rims(holes, dark.shape, params.min_rim_px) if spoked else []),
+                                      dark, params)]
 
 
 def spoked_rims(holes: list[np.ndarray], shape: tuple[int, int], spoke_px: float) -> list[np.ndarray]:
@@ -356,16 +373,20 @@ def detect_wheels(
     horizon = road_to_image.map_lines(np.array([0.0, 0.0, 1.0]))[0]
     grey = cv2.cvtColor(roi_bgr, cv2.COLOR_BGR2GRAY).astype(np.float32)
 
-    def wheels_from(spoked: bool) -> Wheels | None:
-        return paired_wheels(best_per_place([
-            measured for roi_rim, overlap, dark in rim_candidates(grey, mask, params, spoked)
-            if (measured := measure_wheel(Ellipse(roi_rim.centre_px + offset, roi_rim.semi_axes_px, roi_rim.angle_deg),
-                                          overlap, dark, grey, mask, offset, vertical_vp, horizon, road_to_image, params))
-        ]), road_to_image, foot, params)
+    def measured(outlines: list[np.ndarray], dark: np.ndarray) -> list[tuple]:
+        return [wheel for roi_rim, overlap, level_dark in rim_fits(outlines, dark, params)
+                if (wheel := measure_wheel(Ellipse(roi_rim.centre_px + offset, roi_rim.semi_axes_px, roi_rim.angle_deg),
+                                           overlap, level_dark, grey, mask, offset, vertical_vp, horizon, road_to_image,
+                                           params))]
 
-    wheels = wheels_from(spoked=False)
+    levels = dark_levels(grey, mask, params)
+    from_holes = [measured(holes, dark) for dark, holes in levels]
+    wheels = paired_wheels(best_per_place([wheel for level in from_holes for wheel in level]), road_to_image, foot, params)
     if params.spoked_rims and (wheels is None or len(wheels.wheels) < 2):
-        spoked = wheels_from(spoked=True)
+        spoked = paired_wheels(best_per_place([
+            wheel for found, (dark, holes) in zip(from_holes, levels)
+            for wheel in found + measured(spoked_rims(holes, dark.shape, params.min_rim_px), dark)
+        ]), road_to_image, foot, params)
         if spoked is not None and (wheels is None or len(spoked.wheels) > len(wheels.wheels)):
             wheels = spoked
     return wheels
