@@ -13,6 +13,7 @@ from vehloc.geometry.placement import (
     place_on_end,
     place_on_side,
 )
+from vehloc.geometry.pipeline.evaluation import at_stop
 from vehloc.geometry.pipeline.table2 import combined_accuracy_pct, pose_error, true_box_from_tyres
 
 PAPER_CAR_MM = (4920.0, 1870.0)
@@ -83,3 +84,15 @@ def test_both_placements_rebuild_the_box_they_were_taken_from():
     from_side = place_on_side(right_middle, box.left, box.length_mm, box.width_mm)
     np.testing.assert_allclose(from_side.centre_mm, box.centre_mm, atol=1e-9)
     np.testing.assert_allclose(facing(from_side, box.heading_deg).corners_mm(), box.corners_mm(), atol=1e-9)
+
+
+def test_a_car_is_at_its_stop_from_its_stop_frame_or_within_half_a_percent_of_its_diagonal():
+    """A car slowing evenly from 8 m over 40 frames to stop at frame 100 is 8000 (k / 40)^2 mm short of its stop k
+    frames before it: 5, 20 and 45 mm at k = 1, 2, 3 against 0.5 % of the paper's car's 5,263 mm diagonal (26.3 mm)."""
+    diagonal_mm = float(np.hypot(*PAPER_CAR_MM))
+    stop_mm = (404.0, 10530.0)
+    short_mm = {k: 8000.0 * (k / 40) ** 2 for k in (1, 2, 3)}
+    standing = [at_stop(100 - k, 100, (stop_mm[0], stop_mm[1] - short_mm[k]), stop_mm, diagonal_mm) for k in (1, 2, 3)]
+    assert standing == [True, True, False]
+    assert at_stop(100, 100, None, stop_mm, diagonal_mm) and at_stop(130, 100, (0.0, 0.0), stop_mm, diagonal_mm)
+    assert not at_stop(99, 100, None, stop_mm, diagonal_mm)  # out of the scene before its stop

@@ -21,7 +21,7 @@ from vehloc.benchmark.visibility import TYRE_NAMES, Visibility, VisibilityParams
 from vehloc.data.boxes import Box
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.pipeline.drawing import METHOD_COLOURS_BGR, draw_cuboid
-from vehloc.geometry.pipeline.evaluation import MIN_MATCH_IOU, NOT_TRACKED_TO_STOP
+from vehloc.geometry.pipeline.evaluation import MIN_MATCH_IOU, NOT_TRACKED_TO_STOP, at_stop
 from vehloc.geometry.pipeline.localize import Localizer, Status, VehicleRecord
 from vehloc.geometry.pipeline.settings import LocalizeSettings
 from vehloc.geometry.placement import VehicleBox
@@ -32,7 +32,7 @@ from vehloc.geometry.pipeline.video import iter_frames
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.synth.catalog import model_by_id
 from vehloc.synth.render import tyre_contacts_car_mm
-from vehloc.synth.scene import CameraSpec, SceneSpec, write_video
+from vehloc.synth.scene import CameraSpec, SceneSpec, car_pose_at, write_video
 
 FIT_POSITION_PCT, FIT_HEADING_DEG = 1.0, 1.0
 """The model fit's bar: within 1 % of the diagonal and 1 deg."""
@@ -76,16 +76,22 @@ class StoppedCarRun:
 
 def localize_stopped_car(spec: SceneSpec, localizer: Localizer, folder: Path) -> StoppedCarRun:
     """Render `spec` into a video in `folder` (its codec, as `vehloc-scene` writes it) and feed its frames to
-    `localizer` until the record of its stopped car: the first at or after its stop whose box overlaps the car's
-    by `MIN_MATCH_IOU` (Table 2's rule)."""
+    `localizer` until the record of its stopped car: the first made at its stop (`at_stop`) whose box overlaps the
+    car's by `MIN_MATCH_IOU` (Table 2's rule)."""
     video = folder / f"{spec.name}.avi"
     boxes = write_video(spec, video)
-    stop_frame = spec.stop_frame(spec.cars[0])
+    car = spec.cars[0]
+    stop_frame = spec.stop_frame(car)
+    model = model_by_id(car.model_id)
+    diagonal_mm = float(np.hypot(model.length_mm, model.width_mm))
     frame_index, frame_bgr = -1, None
     for frame_index, frame_bgr in enumerate(iter_frames(video)):
         truth_box = boxes[frame_index][0]
+        pose = car_pose_at(spec, car, frame_index)
+        standing = at_stop(frame_index, stop_frame, None if pose is None else (pose.x_mm, pose.y_mm),
+                           (car.target_x_mm, car.target_y_mm), diagonal_mm)
         for record in localizer.process(frame_index, frame_bgr):
-            if frame_index >= stop_frame and truth_box is not None and record.box_px.iou(truth_box) >= MIN_MATCH_IOU:
+            if standing and truth_box is not None and record.box_px.iou(truth_box) >= MIN_MATCH_IOU:
                 return StoppedCarRun(record, frame_bgr, truth_box, frame_index + 1)
     return StoppedCarRun(None, frame_bgr, boxes[frame_index][0], frame_index + 1)
 

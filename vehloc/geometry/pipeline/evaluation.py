@@ -31,6 +31,10 @@ if TYPE_CHECKING:
     import pandas as pd
 
 MIN_MATCH_IOU = 0.5
+AT_STOP_DIAGONAL_FRACTION = 0.005
+"""A record made before a car's stop frame is its stop's when the car is by then within this fraction of its diagonal
+of where it stops (slowing evenly, a frame or two before: the tracker calls a box still over ten frames within 2 % of
+its diagonal). Its errors are taken against the stop all the same, the last of its travel included."""
 METHODS = ("paper", "fit")
 
 
@@ -42,12 +46,29 @@ def true_box(car: CarTruth) -> VehicleBox:
     return true_box_from_tyres(car.tyre_contacts_mm, car.axle_middle_x_mm, car.length_mm, car.width_mm)
 
 
+def at_stop(frame: int, stop_frame: int, centre_mm: tuple[float, float] | None, stop_centre_mm: tuple[float, float],
+            diagonal_mm: float) -> bool:
+    """Whether a car whose centre is at `centre_mm` in `frame` stands at its stop: from its stop frame on, or before
+    it within `AT_STOP_DIAGONAL_FRACTION` of its diagonal of its stop."""
+    if frame >= stop_frame:
+        return True
+    return centre_mm is not None and bool(
+        np.hypot(centre_mm[0] - stop_centre_mm[0], centre_mm[1] - stop_centre_mm[1])
+        <= AT_STOP_DIAGONAL_FRACTION * diagonal_mm)
+
+
 def match(car: CarTruth, records: Sequence[VehicleRecord]) -> VehicleRecord | None:
-    """The record of a stopped car: the first record at or after its stop whose box overlaps the car's true
+    """The record of a stopped car: the first record made at its stop (`at_stop`) whose box overlaps the car's true
     box in that frame by at least `MIN_MATCH_IOU`."""
+    stop_centre_mm = (car.target_pose.x_mm, car.target_pose.y_mm)
+    diagonal_mm = float(np.hypot(car.length_mm, car.width_mm))
     for record in sorted(records, key=lambda r: r.frame):
-        truth_box = car.boxes[record.frame] if record.frame < len(car.boxes) else None
-        if record.frame >= (car.stop_frame or 0) and truth_box is not None and record.box_px.iou(truth_box) >= MIN_MATCH_IOU:
+        in_truth = record.frame < len(car.boxes)
+        truth_box = car.boxes[record.frame] if in_truth else None
+        pose = car.poses[record.frame] if in_truth else None
+        centre_mm = None if pose is None else (pose.x_mm, pose.y_mm)
+        if (at_stop(record.frame, car.stop_frame or 0, centre_mm, stop_centre_mm, diagonal_mm)
+                and truth_box is not None and record.box_px.iou(truth_box) >= MIN_MATCH_IOU):
             return record
     return None
 

@@ -95,6 +95,7 @@ class TrackerParams:
     min_iou: float
     stop_frames: int
     stop_tolerance_fraction: float
+    stop_flicker_frames: int
     max_lost_frames: int
     motion_frames: int
     max_shared_frames: int
@@ -111,6 +112,7 @@ class TrackerParams:
         check_range("min_iou", self.min_iou, 0.0, 1.0)
         check_range("stop_frames", self.stop_frames, 2)
         check_range("stop_tolerance_fraction", self.stop_tolerance_fraction, 0.0)
+        check_range("stop_flicker_frames", self.stop_flicker_frames, 0, self.stop_frames - 2)
         check_range("max_lost_frames", self.max_lost_frames, 1)
 
     @classmethod
@@ -276,7 +278,8 @@ class StoppedVehicleTracker:
 
     def is_still(self, track: VehicleTrack) -> bool:
         """Whether the track's box stayed put over its last `stop_frames` frames, seen one after another: its middle
-        within `stop_tolerance_fraction` of its diagonal of where it is now. Where its top or its bottom flickers
+        within `stop_tolerance_fraction` of its diagonal of where it is now, at the window's first frame and at all but
+        `stop_flicker_frames` of the others (`still_but_for_flicker`). Where its top or its bottom flickers
         (strays from a smooth motion by more than half that, and more than half a step of the boxes' edges, which a
         smooth motion strays by on their grid: a standing car's shadow comes and goes from the foreground, a grey roof
         fades into the road) and the other does not, the middle is taken at the other's height, unless that one lies
@@ -292,7 +295,16 @@ class StoppedVehicleTracker:
         flicker_tolerance_px = max(tolerance_px, self.box_step_px) / 2.0
         x_shift = shifts[:, [0, 2]].mean(axis=1)
         y_shift = steady_middle_shift(edges[:, [1, 3]], shifts[:, [1, 3]], flicker_tolerance_px, self.frame_height_px)
-        return float(np.max(np.hypot(x_shift, y_shift))) <= tolerance_px
+        return still_but_for_flicker(np.hypot(x_shift, y_shift) <= tolerance_px, self.params.stop_flicker_frames)
+
+
+def still_but_for_flicker(within: np.ndarray, flicker_frames: int) -> bool:
+    """Whether a window of frames, each flagged where the box's middle is within the stillness tolerance of the last
+    frame's, shows a standing vehicle: its first frame within (the window's ends agree) and at most `flicker_frames`
+    frames not (a box that strays for a frame or two and comes back: a shadow on a bright line beside the vehicle,
+    a far grey car's side, flickering in and out of its blob). A moving or slowing vehicle strays from the window's
+    first frame on, which no count forgives."""
+    return bool(within[0]) and int(np.count_nonzero(~within)) <= flicker_frames
 
 
 def steady_middle_shift(edges_px: np.ndarray, shifts_px: np.ndarray, flicker_tolerance_px: float,
