@@ -34,8 +34,8 @@ def test_the_highway_experiment_sets_its_settings_and_no_other() -> None:
     assert highway.roi == RoiParams.from_config(scale=1.0, close_kernel_px=5, min_area_fraction=0.002)
     assert highway.detectors.wheels == replace(default.detectors.wheels, spoked_rims=False)
     assert replace(highway.detectors, wheels=default.detectors.wheels) == default.detectors
-    assert (highway.tracker, highway.fit) == (default.tracker, default.fit)
-    assert default.pipeline.every_frame is False and default.roi.min_area_fraction == 0.001
+    assert highway.tracker == replace(default.tracker, stop_flicker_frames=0) and highway.fit == default.fit
+    assert default.tracker.stop_flicker_frames == 3 and default.pipeline.every_frame is False and default.roi.min_area_fraction == 0.001
 
 
 def test_the_traffic_experiment_votes_on_the_largest_views_and_changes_nothing_else() -> None:
