@@ -35,7 +35,8 @@ def test_the_highway_experiment_sets_its_settings_and_no_other() -> None:
     assert highway.detectors.wheels == replace(default.detectors.wheels, spoked_rims=False)
     assert replace(highway.detectors, wheels=default.detectors.wheels) == default.detectors
     assert highway.tracker == replace(default.tracker, stop_flicker_frames=0) and highway.fit == default.fit
-    assert default.tracker.stop_flicker_frames == 3 and default.pipeline.every_frame is False and default.roi.min_area_fraction == 0.001
+    assert default.tracker.stop_flicker_frames == 3 and default.pipeline.every_frame is False
+    assert default.roi.min_area_fraction == 0.001
 
 
 def test_the_traffic_experiment_votes_on_the_largest_views_and_changes_nothing_else() -> None:

@@ -107,10 +107,11 @@ def test_without_sharing_the_larger_track_takes_the_merged_box_and_goes_on_as_th
     assert t.started > 2 or fast.box != _car(100 + 6 * 39, 200) or slow.box != _car(160 + 39, 185)
 
 
-def _stop_frame(boxes: list[Box]) -> int | None:
-    """The frame at which the tracker (10 frames, 2 % of the diagonal) first calls the one vehicle of `boxes` still."""
-    t = StoppedVehicleTracker(vote_frames=4, params=TrackerParams.from_config(stop_frames=10,
-                                                                              stop_tolerance_fraction=0.02))
+def _stop_frame(boxes: list[Box], flicker_frames: int = 3) -> int | None:
+    """The frame at which the tracker (10 frames, 2 % of the diagonal, `flicker_frames` stray frames forgiven) first
+    calls the one vehicle of `boxes` still."""
+    t = StoppedVehicleTracker(vote_frames=4, params=TrackerParams.from_config(
+        stop_frames=10, stop_tolerance_fraction=0.02, stop_flicker_frames=flicker_frames))
     for frame, box in enumerate(boxes):
         stopped = t.update([box], frame).stopped
         if stopped:
@@ -134,12 +135,7 @@ def test_a_standing_car_whose_side_strays_for_a_frame_or_two_is_still() -> None:
     right_px = [880, 880, 880, 896, 896, 880, 896, 880, 880, 880, 880, 880]
     boxes = [Box(620, 274, right, 394) for right in right_px]
 
-    def stop(flicker_frames: int) -> int | None:
-        t = StoppedVehicleTracker(4, TrackerParams.from_config(stop_frames=10, stop_tolerance_fraction=0.02,
-                                                               stop_flicker_frames=flicker_frames))
-        return next((frame for frame, box in enumerate(boxes) if t.update([box], frame).stopped), None)
-
-    assert stop(3) == 9 and stop(0) is None
+    assert _stop_frame(boxes, 3) == 9 and _stop_frame(boxes, 0) is None
 
 
 def test_a_slowing_car_is_still_no_sooner_for_the_forgiven_frames() -> None:
@@ -149,12 +145,7 @@ def test_a_slowing_car_is_still_no_sooner_for_the_forgiven_frames() -> None:
     short_px = [round(24 * (1 - min(f, 40) / 40) ** 2) for f in range(60)]
     slowing = [Box(600 - short, 300, 860 - short, 420) for short in short_px]
 
-    def stop(flicker_frames: int) -> int | None:
-        t = StoppedVehicleTracker(4, TrackerParams.from_config(stop_frames=10, stop_tolerance_fraction=0.02,
-                                                               stop_flicker_frames=flicker_frames))
-        return next((frame for frame, box in enumerate(slowing) if t.update([box], frame).stopped), None)
-
-    assert stop(0) == stop(3) == 24
+    assert _stop_frame(slowing, 0) == _stop_frame(slowing, 3) == 24
 
 
 def test_an_edge_moving_smoothly_on_the_boxes_grid_is_no_flicker() -> None:
