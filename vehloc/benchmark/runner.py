@@ -21,7 +21,7 @@ from vehloc.benchmark.visibility import TYRE_NAMES, Visibility, VisibilityParams
 from vehloc.data.boxes import Box
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.pipeline.drawing import METHOD_COLOURS_BGR, draw_cuboid
-from vehloc.geometry.pipeline.evaluation import MIN_MATCH_IOU, NOT_TRACKED_TO_STOP, at_stop
+from vehloc.geometry.pipeline.evaluation import NOT_TRACKED_TO_STOP, at_stop, is_stop_record
 from vehloc.geometry.pipeline.localize import Localizer, Status, VehicleRecord
 from vehloc.geometry.pipeline.settings import LocalizeSettings
 from vehloc.geometry.placement import VehicleBox
@@ -76,8 +76,7 @@ class StoppedCarRun:
 
 def localize_stopped_car(spec: SceneSpec, localizer: Localizer, folder: Path) -> StoppedCarRun:
     """Render `spec` into a video in `folder` (its codec, as `vehloc-scene` writes it) and feed its frames to
-    `localizer` until the record of its stopped car: the first made at its stop (`at_stop`) whose box overlaps the
-    car's by `MIN_MATCH_IOU` (Table 2's rule)."""
+    `localizer` until the record of its stopped car: the first that `is_stop_record` (Table 2's rule)."""
     video = folder / f"{spec.name}.avi"
     boxes = write_video(spec, video)
     car = spec.cars[0]
@@ -91,7 +90,7 @@ def localize_stopped_car(spec: SceneSpec, localizer: Localizer, folder: Path) ->
         standing = at_stop(frame_index, stop_frame, None if pose is None else (pose.x_mm, pose.y_mm),
                            (car.target_x_mm, car.target_y_mm), diagonal_mm)
         for record in localizer.process(frame_index, frame_bgr):
-            if standing and truth_box is not None and record.box_px.iou(truth_box) >= MIN_MATCH_IOU:
+            if is_stop_record(record, standing, truth_box):
                 return StoppedCarRun(record, frame_bgr, truth_box, frame_index + 1)
     return StoppedCarRun(None, frame_bgr, boxes[frame_index][0], frame_index + 1)
 

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from vehloc.atomic import write_text
+from vehloc.data.boxes import Box
 from vehloc.data.specs import display_name
 from vehloc.geometry.pipeline.drawing import write_birds_eye
 from vehloc.geometry.outcome import NotPlaced, ReasonCode
@@ -57,9 +58,14 @@ def at_stop(frame: int, stop_frame: int, centre_mm: tuple[float, float] | None, 
         <= AT_STOP_DIAGONAL_FRACTION * diagonal_mm)
 
 
+def is_stop_record(record: VehicleRecord, standing: bool, truth_box: Box | None) -> bool:
+    """Whether `record` is a stopped car's (Table 2's rule): made while the car stands at its stop (`at_stop`), its box
+    overlapping the car's true box in that frame by at least `MIN_MATCH_IOU`."""
+    return standing and truth_box is not None and record.box_px.iou(truth_box) >= MIN_MATCH_IOU
+
+
 def match(car: CarTruth, records: Sequence[VehicleRecord]) -> VehicleRecord | None:
-    """The record of a stopped car: the first record made at its stop (`at_stop`) whose box overlaps the car's true
-    box in that frame by at least `MIN_MATCH_IOU`."""
+    """The record of a stopped car: the first that `is_stop_record`."""
     stop_centre_mm = (car.target_pose.x_mm, car.target_pose.y_mm)
     diagonal_mm = float(np.hypot(car.length_mm, car.width_mm))
     for record in sorted(records, key=lambda r: r.frame):
@@ -67,8 +73,8 @@ def match(car: CarTruth, records: Sequence[VehicleRecord]) -> VehicleRecord | No
         truth_box = car.boxes[record.frame] if in_truth else None
         pose = car.poses[record.frame] if in_truth else None
         centre_mm = None if pose is None else (pose.x_mm, pose.y_mm)
-        if (at_stop(record.frame, car.stop_frame or 0, centre_mm, stop_centre_mm, diagonal_mm)
-                and truth_box is not None and record.box_px.iou(truth_box) >= MIN_MATCH_IOU):
+        if is_stop_record(record, at_stop(record.frame, car.stop_frame or 0, centre_mm, stop_centre_mm, diagonal_mm),
+                          truth_box):
             return record
     return None
 
