@@ -440,6 +440,14 @@ SCRIPT_CASES = {
                                                ["--calibration", "{tmp}/none.json", "--localized", "{tmp}/run",
                                                 "--out", "{tmp}/out"],
                                                "none.json: calibration file does not exist"),
+    "speed_missing_model": ("experiments/speed/run.py", ["--model", "{tmp}/none.onnx", "--out", "{tmp}/out"],
+                            "--model {tmp}/none.onnx: no such file"),
+    "speed_seeds_backwards": ("experiments/speed/run.py", ["--model", "{tmp}/none.onnx", "--out", "{tmp}/out", "--cases",
+                                                           "traffic_720p:5-3"],
+                              "--cases 'traffic_720p:5-3': the last seed is before the first"),
+    "speed_unknown_scene": ("experiments/speed/run.py", ["--model", "{tmp}/none.onnx", "--out", "{tmp}/out", "--cases",
+                                                         "traffic_4k:1"],
+                            "--cases 'traffic_4k:1': expected SCENE:SEED or SCENE:FIRST-LAST"),
 }
 
 
@@ -451,7 +459,7 @@ def test_an_experiment_script_answers_bad_input_in_one_line(kind: str, tmp_path:
     project = Path(__file__).resolve().parents[1]
     result = subprocess.run([sys.executable, str(project / script), *(a.format(tmp=tmp_path) for a in args)],
                             capture_output=True, text=True, env=cli_env(), timeout=300)
-    assert_one_error(result, script, fragment)
+    assert_one_error(result, script, fragment.format(tmp=tmp_path))
     assert "Traceback" not in result.stderr and not (tmp_path / "out").exists()
 
 

@@ -5,12 +5,15 @@ vehicle's speed with an exported classifier (`experiment=traffic`; `roi.scale=1`
 truth in the benchmark's format with its rules (`vehloc.geometry.pipeline.speed_eval`).
 
     python experiments/speed/run.py --model demo_data/model.onnx --out outputs/speed --split heldout
+    python experiments/speed/run.py --model demo_data/model.onnx --out outputs/fresh --cases traffic_720p:107-138 --workers 8
 
 The development cases (traffic seed 0 at each size) are the ones the speed's settings were chosen on; the held-out
 cases (seeds 100 on) were never looked at while choosing them. `--true-model` adds, per case, the same traffic of one
 catalog model (the Honda Spirior) with that model named for every vehicle: the geometry's error apart from the
-classifier's. Writes into `--out`: per case its folder (`scene/`, `calibration/`, `localize/`, `score/`), and
-`speed.csv`, `speed.md` (the table, the bars and the field's figures) and `speed.png` (errors by case, measured
+classifier's. `--cases` runs other seeds instead (any seed but 0 is held out), `--workers` that many cases side by
+side; a case that fails is a row saying why. Writes into `--out`: per case its folder (`scene/`, `calibration/`, `localize/`, `score/`), and
+`speed.csv`, `speed.md` (the table, the bars per case and over each split's cases pooled, the field's
+figures) and `speed.png` (errors by case, measured
 against true speed). Cases already rendered and calibrated in `--out` are reused (`--force` redoes them).
 """
 
@@ -19,7 +22,10 @@ from __future__ import annotations
 import argparse
 import io
 import json
+import multiprocessing
+import re
 import time
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -28,6 +34,7 @@ import pandas as pd
 
 from vehloc.atomic import write_bytes, write_text
 from vehloc.benchmark.oracle import TrueModelClassifier
+from vehloc.benchmark.suite import _start_worker, single_threaded_children
 from vehloc.demo.table2_cases import calibrate_case, render_case, scene_spec
 from vehloc.geometry.camera_calibration import read_calibration
 from vehloc.geometry.pipeline.brno_files import read_ground_truth, read_results
@@ -37,8 +44,8 @@ from vehloc.geometry.pipeline.speed_eval import score_speeds
 from vehloc.geometry.pipeline.speed_report import PUBLISHED, write_score
 from vehloc.geometry.pipeline.video_localization import localize_video
 from vehloc.infer.classifier import VehicleClassifier
+from vehloc.errors import VehlocError, exit_on_error
 from vehloc.tables import markdown_table
-from vehloc.errors import exit_on_error
 
 TRUE_MODEL_ID = 9  # the Honda Spirior, the paper's test car
 CLICK_NOISE_PX = {"traffic_240p": 0.5, "traffic_720p": 2.0, "traffic_1080p": 2.0}
@@ -58,6 +65,9 @@ BARS = {"traffic_720p": {"median_error_kmh": 0.5, "mean_error_kmh": 1.0, "p95_er
         "traffic_240p": {"median_error_kmh": 1.5}}
 """The issue's bars: rendered traffic at 1280x720 (median, mean and 95th percentile error, recall, precision), and the
 median at 320x240."""
+DEV_SEEDS = (0,)
+"""The traffic seeds the speed's settings were chosen on; every other seed is held out."""
+CASES_PATTERN = re.compile(r"^(traffic_(?:240p|720p|1080p)):(\d+)(?:-(\d+))?$")
 
 
 @dataclass(frozen=True)
@@ -112,6 +122,57 @@ def measure(case: Case, folder: Path, classifier: VehicleClassifier, overrides: 
             "tracks_p95_error_kmh": float(np.percentile(own, 95)) if len(own) else np.nan}
 
 
+def parse_cases(items: list[str]) -> list[tuple[str, int]]:
+    """`--cases` items (`traffic_720p:107-138`, `traffic_240p:5`) as (scene, seed) pairs; ValueError naming the
+    item that is neither."""
+    pairs = []
+    for item in items:
+        match = CASES_PATTERN.match(item)
+        if match is None:
+            raise ValueError(f"--cases {item!r}: expected SCENE:SEED or SCENE:FIRST-LAST, SCENE one of "
+                             f"{sorted(SETTINGS)}")
+        first, last = int(match[2]), int(match[3] or match[2])
+        if last < first:
+            raise ValueError(f"--cases {item!r}: the last seed is before the first")
+        pairs += [(match[1], seed) for seed in range(first, last + 1)]
+    return pairs
+
+
+def run_case(case: Case, folder: Path, model: Path, duration_s: float, force: bool,
+             overrides: list[str]) -> dict[str, object]:
+    """One case prepared, measured and scored: its row of the table, or a row saying why it failed (one case's
+    failure is that case's result)."""
+    try:
+        prepare(case, folder, duration_s, force)
+        return {"case": case.name, **measure(case, folder, VehicleClassifier.from_onnx(model), overrides)}
+    except Exception as err:  # noqa: BLE001
+        return {"case": case.name, "split": case.split, "scene": case.scene, "seed": case.seed,
+                "classifier": "true model" if case.true_model else model.name, "error": f"{type(err).__name__}: {err}"}
+
+
+def pooled(table: pd.DataFrame, folders: dict[str, Path]) -> pd.DataFrame:
+    """Per scene, split and classifier over its scored cases: how many meet every bar, and the errors (km/h) of
+    all their matched vehicles pooled, with recall and precision over all their cars."""
+    rows = []
+    scored = table.dropna(subset=["recall"])
+    for (scene, split, classifier), cases in scored.groupby(["scene", "split", "classifier"]):
+        matches = pd.concat([pd.read_csv(folders[name] / "score" / "matches.csv") for name in cases["case"]])
+        errors = matches.loc[matches["valid"].astype(bool), "error_kmh"].dropna().abs().to_numpy()
+        bars = BARS.get(scene, {})
+        meeting = sum(all(row[key] <= bar if "error" in key else row[key] >= bar for key, bar in bars.items())
+                      for _, row in cases.iterrows())
+        matched = (cases["recall"] * cases["true_cars"]).sum()
+        reported = matched / cases["precision"].where(cases["precision"] > 0)
+        rows.append({"scene": scene, "split": split, "classifier": classifier, "cases": len(cases),
+                     "cases_meeting_every_bar": meeting if bars else np.nan, "true_cars": cases["true_cars"].sum(),
+                     "recall": matched / cases["true_cars"].sum(), "precision": matched / reported.sum(),
+                     "mean_error_kmh": errors.mean() if len(errors) else np.nan,
+                     "median_error_kmh": np.median(errors) if len(errors) else np.nan,
+                     "p95_error_kmh": np.percentile(errors, 95) if len(errors) else np.nan,
+                     "worst_error_kmh": errors.max() if len(errors) else np.nan})
+    return pd.DataFrame(rows)
+
+
 def plot(folders: dict[str, Path], table: pd.DataFrame) -> bytes:
     import matplotlib
 
@@ -144,11 +205,13 @@ def plot(folders: dict[str, Path], table: pd.DataFrame) -> bytes:
     return buffer.getvalue()
 
 
-def markdown(table: pd.DataFrame, model: str) -> str:
+def markdown(table: pd.DataFrame, pooled_table: pd.DataFrame, model: str) -> str:
+    failed = table[table["recall"].isna()]
+    table = table.dropna(subset=["recall"])
     columns = ["split", "case", "classifier", "model_right_percent", "true_cars", "recall", "precision", "mean_error_kmh",
                "median_error_kmh", "p95_error_kmh", "worst_error_kmh", "median_error_percent", "tracks_mean_error_kmh",
                "tracks_median_error_kmh", "mean_distance_error_percent", "fps"]
-    shown = table[columns].copy()
+    shown = table.reindex(columns=columns)
     shown[["recall", "precision"]] = shown[["recall", "precision"]] * 100
     lines = [f"# Speeds of rendered traffic, classifier {model}", "",
              "Scored with the benchmark's rules (median of 5-frame steps, matched within 0.2 s in the same lane); recall "
@@ -165,6 +228,12 @@ def markdown(table: pd.DataFrame, model: str) -> str:
                     met = worst <= bar if lower_is_better else worst >= bar
                     verdicts.append(f"{key} {worst:.3g} ({'met' if met else 'not met'}, bar {bar:g})")
                 lines.append(f"- {scene}, {split}, {classifier} (the worst of {len(rows)} case(s)): " + "; ".join(verdicts))
+    shown = pooled_table.copy()
+    shown[["recall", "precision"]] = shown[["recall", "precision"]] * 100
+    lines += ["", "Each split's cases pooled (`cases_meeting_every_bar`: of the scene's bars above; errors over all their "
+              "matched vehicles, recall and precision over all their cars):", "", markdown_table(shown)]
+    if len(failed):
+        lines += ["", "Cases that failed:", ""] + [f"- {row.case}: {row.error}" for row in failed.itertuples()]
     lines += ["", "The field's published figures on the real benchmark (split C), for comparison:", "",
               "| system | mean (km/h) | median (km/h) |", "|---|---|---|"]
     lines += [f"| {name} | {mean:.2f} | {'-' if median is None else f'{median:.2f}'} |" for name, mean, median in PUBLISHED]
@@ -182,28 +251,58 @@ def main() -> None:
     parser.add_argument("--force", action="store_true", help="render and calibrate again")
     parser.add_argument("--set", nargs="*", default=[], metavar="SETTING=VALUE",
                         help="vehloc-localize settings for every case (speed.candidates=1: the vote's first model alone)")
+    parser.add_argument("--cases", nargs="+", default=None, metavar="SCENE:SEEDS",
+                        help="run these instead of the split's cases: traffic_720p:107-138, traffic_240p:5 (seed 0 is "
+                             "the development case, every other held out)")
+    parser.add_argument("--workers", type=int, default=1, help="cases run side by side (one OpenCV thread each)")
     args = parser.parse_args()
+    if args.workers < 1:
+        raise VehlocError(f"--workers {args.workers}: must be at least 1")
+    try:
+        chosen = parse_cases(args.cases) if args.cases else None
+    except ValueError as err:
+        raise VehlocError(str(err)) from None
     if not args.model.is_file():
-        raise SystemExit(f"--model {args.model}: no such file")
-    classifier = VehicleClassifier.from_onnx(args.model)
+        raise VehlocError(f"--model {args.model}: no such file")
+    model_name = VehicleClassifier.from_onnx(args.model).source.split("/")[-1]  # a bad model refused here
     splits = ["dev", "heldout"] if args.split == "all" else [args.split]
-    cases = [Case(split, scene, seed, true_model) for split in splits for scene, seed in SPLITS[split]
+    pairs = chosen or [(scene, seed) for split in splits for scene, seed in SPLITS[split]]
+    cases = [Case("dev" if seed in DEV_SEEDS else "heldout", scene, seed, true_model) for scene, seed in pairs
              for true_model in ([False, True] if args.true_model else [False])]
     for scene in {case.scene for case in cases}:
         LocalizeSettings.compose(SETTINGS[scene] + args.set)  # a bad --set refused before any case runs
-    rows, folders = [], {}
-    for number, case in enumerate(cases, 1):
-        started, folder = time.perf_counter(), args.out / case.name
-        prepare(case, folder, args.duration_s, args.force)
-        rows.append({"case": case.name, **measure(case, folder, classifier, args.set)})
-        folders[case.name] = folder
-        print(f"[{number}/{len(cases)}] {case.name} ({case.split}): recall {rows[-1]['recall']:.3f}, median / mean "
-              f"{rows[-1]['median_error_kmh']:.2f} / {rows[-1]['mean_error_kmh']:.2f} km/h, "
+    folders = {case.name: args.out / case.name for case in cases}
+    jobs = [(case, folders[case.name], args.model, args.duration_s, args.force, args.set) for case in cases]
+    started = time.perf_counter()
+
+    def report(number: int, row: dict[str, object]) -> None:
+        verdict = (f"error: {row['error']}" if "error" in row else f"recall {row['recall']:.3f}, median / mean "
+                   f"{row['median_error_kmh']:.2f} / {row['mean_error_kmh']:.2f} km/h")
+        print(f"[{number}/{len(cases)}] {row['case']} ({row['split']}): {verdict}, "
               f"{time.perf_counter() - started:.0f} s", flush=True)
+
+    rows = []
+    if args.workers == 1:
+        for number, job in enumerate(jobs, 1):
+            rows.append(run_case(*job))
+            report(number, rows[-1])
+    else:
+        spawn = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(args.workers, mp_context=spawn, initializer=_start_worker, initargs=(None,)) as pool:
+            with single_threaded_children():
+                futures = [pool.submit(run_case, *job) for job in jobs]
+            for number, future in enumerate(futures, 1):
+                rows.append(future.result())
+                report(number, rows[-1])
     table = pd.DataFrame(rows)
+    table = table.reindex(columns=list(dict.fromkeys([*table.columns, "recall", "error"])))
+    scored = table.dropna(subset=["recall"])
+    pooled_table = pooled(scored, folders)
     write_text(args.out / "speed.csv", table.to_csv(index=False, float_format="%.4f"))
-    write_text(args.out / "speed.md", markdown(table, args.model.name))
-    write_bytes(args.out / "speed.png", plot(folders, table))
+    write_text(args.out / "speed_pooled.csv", pooled_table.to_csv(index=False, float_format="%.4f"))
+    write_text(args.out / "speed.md", markdown(table, pooled_table, model_name))
+    if len(scored):
+        write_bytes(args.out / "speed.png", plot(folders, scored))
     print((args.out / "speed.md").read_text())
 
 
