@@ -151,25 +151,30 @@ def run_case(case: Case, folder: Path, model: Path, duration_s: float, force: bo
 
 
 def pooled(table: pd.DataFrame, folders: dict[str, Path]) -> pd.DataFrame:
-    """Per scene, split and classifier over its scored cases: how many meet every bar, and the errors (km/h) of
-    all their matched vehicles pooled, with recall and precision over all their cars."""
+    """Per scene, split and classifier over its scored cases: how many meet every bar, the errors (km/h) of all
+    their matched vehicles pooled, recall over all their valid true cars and precision over all their reported
+    ones (the scorer's definitions, `vehloc.geometry.pipeline.speed_eval`, summed over the cases)."""
     rows = []
-    scored = table.dropna(subset=["recall"])
-    for (scene, split, classifier), cases in scored.groupby(["scene", "split", "classifier"]):
-        matches = pd.concat([pd.read_csv(folders[name] / "score" / "matches.csv") for name in cases["case"]])
-        errors = matches.loc[matches["valid"].astype(bool), "error_kmh"].dropna().abs().to_numpy()
+    for (scene, split, classifier), cases in table.groupby(["scene", "split", "classifier"]):
+        valid, found, reported_right, errors = 0, 0, 0, []
+        for name in cases["case"]:
+            matches = pd.read_csv(folders[name] / "score" / "matches.csv")
+            kept = matches[matches["valid"].astype(bool)]
+            valid, found = valid + len(kept), found + int(kept["speed_kmh"].notna().sum())
+            reported_right += int(matches["car_id"].dropna().nunique())
+            errors += kept["error_kmh"].dropna().abs().tolist()
         bars = BARS.get(scene, {})
         meeting = sum(all(row[key] <= bar if "error" in key else row[key] >= bar for key, bar in bars.items())
                       for _, row in cases.iterrows())
-        matched = (cases["recall"] * cases["true_cars"]).sum()
-        reported = matched / cases["precision"].where(cases["precision"] > 0)
+        reported = reported_right + cases["false_positives"].sum()
         rows.append({"scene": scene, "split": split, "classifier": classifier, "cases": len(cases),
-                     "cases_meeting_every_bar": meeting if bars else np.nan, "true_cars": cases["true_cars"].sum(),
-                     "recall": matched / cases["true_cars"].sum(), "precision": matched / reported.sum(),
-                     "mean_error_kmh": errors.mean() if len(errors) else np.nan,
-                     "median_error_kmh": np.median(errors) if len(errors) else np.nan,
-                     "p95_error_kmh": np.percentile(errors, 95) if len(errors) else np.nan,
-                     "worst_error_kmh": errors.max() if len(errors) else np.nan})
+                     "cases_meeting_every_bar": meeting if bars else np.nan, "true_cars": valid,
+                     "recall": found / valid if valid else np.nan,
+                     "precision": reported_right / reported if reported else np.nan,
+                     "mean_error_kmh": np.mean(errors) if errors else np.nan,
+                     "median_error_kmh": np.median(errors) if errors else np.nan,
+                     "p95_error_kmh": np.percentile(errors, 95) if errors else np.nan,
+                     "worst_error_kmh": np.max(errors) if errors else np.nan})
     return pd.DataFrame(rows)
 
 
