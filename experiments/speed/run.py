@@ -34,7 +34,7 @@ import pandas as pd
 
 from vehloc.atomic import write_bytes, write_text
 from vehloc.benchmark.oracle import TrueModelClassifier
-from vehloc.benchmark.suite import _start_worker, single_threaded_children
+from vehloc.benchmark.suite import start_worker, single_threaded_children
 from vehloc.demo.table2_cases import calibrate_case, render_case, scene_spec
 from vehloc.geometry.camera_calibration import read_calibration
 from vehloc.geometry.pipeline.brno_files import read_ground_truth, read_results
@@ -293,7 +293,7 @@ def main() -> None:
             report(number, rows[-1])
     else:
         spawn = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(args.workers, mp_context=spawn, initializer=_start_worker, initargs=(None,)) as pool:
+        with ProcessPoolExecutor(args.workers, mp_context=spawn, initializer=start_worker, initargs=(None,)) as pool:
             with single_threaded_children():
                 futures = [pool.submit(run_case, *job) for job in jobs]
             for number, future in enumerate(futures, 1):

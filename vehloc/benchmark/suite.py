@@ -86,7 +86,7 @@ def _load_classifier(model: Path | None) -> None:
     _worker_classifier = None if model is None else VehicleClassifier.from_onnx(model)
 
 
-def _start_worker(model: Path | None) -> None:
+def start_worker(model: Path | None) -> None:
     """A worker process: one OpenCV thread (the workers share the cores), its classifier."""
     cv2.setNumThreads(1)
     _load_classifier(model)
@@ -161,7 +161,7 @@ def run_benchmark(settings: BenchmarkSettings, report: Callable[[int, int, CaseO
             yield outcome
         return
     spawn = multiprocessing.get_context("spawn")  # a forked child of a process with OpenMP threads can hang
-    with ProcessPoolExecutor(settings.workers, mp_context=spawn, initializer=_start_worker,
+    with ProcessPoolExecutor(settings.workers, mp_context=spawn, initializer=start_worker,
                              initargs=(settings.model,)) as pool:
         with single_threaded_children():  # the workers start as the cases are submitted
             futures = [pool.submit(_run, settings, split, case) for split, case in cases]
