@@ -9,19 +9,25 @@ measured with the recognised-models calibration and with the markers' (`vehloc-c
 320x240) and scored with the benchmark's rules.
 
     python experiments/auto_calibration/run.py --model demo_data/model.onnx --out outputs/auto_calibration
+    python experiments/auto_calibration/run.py --model demo_data/model.onnx --out outputs/shared_blobs --workers 8 \
+        --set tracker.motion_frames=5 tracker.max_shared_frames=50
 
 The development cases (`traffic_720p`, `traffic_240p`, `traffic_1080p`, seed 0: the camera of the speed benchmark)
 are the ones the settings of `conf/calibrate/auto_calibration/` were chosen on; the eight set-ups (seed 300) were
 rendered after those choices and not tuned on. Writes per case its folder (`scene/`, `calibration/` from the markers, `auto_<source>/` per scale
 source, `localize_<calibration>/`, `score_<calibration>/`), and `auto_calibration.csv`, `.md`, `vehicles_needed.csv`
-and `auto_calibration.png`. Cases already rendered in `--out` are reused (`--force` renders again).
+and `auto_calibration.png`. Cases already rendered in `--out` are reused (`--force` renders again). `--set` adds
+`vehloc-localize` settings to every case's (the traffic's gathering and both speed runs), `--workers` runs that many
+cases side by side.
 """
 
 from __future__ import annotations
 
 import argparse
 import io
+import multiprocessing
 import time
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -30,6 +36,7 @@ import pandas as pd
 
 from vehloc.atomic import write_bytes, write_text
 from vehloc.benchmark.oracle import catalog_metadata
+from vehloc.benchmark.suite import single_threaded_children, start_worker
 from vehloc.demo.table2_cases import calibrate_case, render_case, scene_spec
 from vehloc.geometry.auto_calibration import combine_heights
 from vehloc.geometry.outcome import FailedEstimate
@@ -55,8 +62,8 @@ from vehloc.geometry.pipeline.tracker import VehicleTrack
 from vehloc.geometry.pipeline.video_localization import localize_video
 from vehloc.geometry.truth import SceneTruth, read_scene_truth
 from vehloc.infer.classifier import VehicleClassifier
+from vehloc.errors import VehlocError, exit_on_error
 from vehloc.tables import markdown_table
-from vehloc.errors import exit_on_error
 
 SETUPS = ["traffic_cam_a_1080p", "traffic_cam_b_1080p", "traffic_cam_c_1080p", "traffic_cam_d_720p",
           "traffic_cam_e_720p", "traffic_cam_f_720p", "traffic_cam_g_240p", "traffic_cam_h_240p"]
@@ -172,9 +179,11 @@ def vehicles_needed(result: AutoCalibration, truth: SceneTruth, seed: int = 0) -
 
 
 def measure_speeds(case: Case, folder: Path, name: str, calibration: CameraCalibration,
-                   classifier: VehicleClassifier) -> dict[str, float]:
-    """The case's speeds with one calibration, scored with the benchmark's rules."""
-    localize_video(Localizer(classifier, calibration, LocalizeSettings.compose(localize_overrides(case.scene))),
+                   classifier: VehicleClassifier, overrides: list[str]) -> dict[str, float]:
+    """The case's speeds with one calibration (`overrides` beside the size's localization settings), scored with
+    the benchmark's rules."""
+    settings = LocalizeSettings.compose(localize_overrides(case.scene) + overrides)
+    localize_video(Localizer(classifier, calibration, settings),
                    folder / "scene" / "video.avi", folder / f"localize_{name}", pictures=False, progress=False)
     score = score_speeds(read_results(folder / f"localize_{name}" / "system_vehloc.json"),
                          read_ground_truth(folder / "scene" / "gt_data.json"), calibration.image_size_px)
@@ -203,9 +212,11 @@ def pooled_needed(out: Path, table: pd.DataFrame, seed: int = 0) -> pd.DataFrame
     return pd.DataFrame(rows)
 
 
-def run_case(case: Case, folder: Path, classifier: VehicleClassifier, params: AutoCalibrationParams,
-             force: bool) -> tuple[list[dict[str, object]], list[dict[str, object]]]:
-    """The case's rows (one per scale source, the speeds beside the recognised one) and its vehicles-needed rows."""
+def run_case(case: Case, folder: Path, model: Path, params: AutoCalibrationParams, force: bool,
+             overrides: list[str]) -> tuple[list[dict[str, object]], list[dict[str, object]]]:
+    """The case's rows (one per scale source, the speeds beside the recognised one) and its vehicles-needed rows,
+    with the classifier exported to `model` and `overrides` beside the size's localization settings."""
+    classifier = VehicleClassifier.from_onnx(model)
     spec = scene_spec(case.scene, [f"scene.traffic.seed={case.seed}", f"scene.seed={case.seed}"])
     if force or not (folder / "scene" / "gt_data.json").is_file():
         render_case(spec, folder, 0.5 if low_resolution(case.scene) else 2.0)
@@ -213,7 +224,7 @@ def run_case(case: Case, folder: Path, classifier: VehicleClassifier, params: Au
         calibrate_case(folder, "guess" if low_resolution(case.scene) else "detect", 5000.0)
     truth = read_scene_truth(folder / "scene" / "ground_truth.json")
     lines = list(spec.measurement_lines_y_mm)
-    settings = LocalizeSettings.compose(localize_overrides(case.scene))
+    settings = LocalizeSettings.compose(localize_overrides(case.scene) + overrides)
     started = time.perf_counter()
     evidence = collect_traffic(folder / "scene" / "video.avi", params, settings, progress=False)
     gathered_s = time.perf_counter() - started
@@ -234,10 +245,10 @@ def run_case(case: Case, folder: Path, classifier: VehicleClassifier, params: Au
                      **calibration_row(result, truth, lines)})
     speeds: dict[str, float] = {}
     marker = read_calibration(folder / "calibration" / "calibration.json")
-    speeds |= measure_speeds(case, folder, "markers", marker, classifier)
+    speeds |= measure_speeds(case, folder, "markers", marker, classifier, overrides)
     if not isinstance(results["recognised"], FailedEstimate):
         automatic = results["recognised"].camera_calibration(str(folder / "auto_recognised" / "calibration.json"))
-        speeds |= measure_speeds(case, folder, "auto", automatic, classifier)
+        speeds |= measure_speeds(case, folder, "auto", automatic, classifier, overrides)
     rows[0] |= speeds
     return rows, needed
 
@@ -333,24 +344,32 @@ def main() -> None:
     parser.add_argument("--only", nargs="*", default=None, help="these scenes only")
     parser.add_argument("--force", action="store_true", help="render and calibrate with the markers again")
     parser.add_argument("--report", action="store_true", help="only the tables and plot again, from --out's CSV files")
+    parser.add_argument("--set", nargs="*", default=[], metavar="SETTING=VALUE",
+                        help="vehloc-localize settings for every case (the traffic's gathering and the speeds)")
+    parser.add_argument("--workers", type=int, default=1, help="cases run side by side (one OpenCV thread each)")
     args = parser.parse_args()
-    if not args.model.is_file():
-        raise SystemExit(f"--model {args.model}: no such file")
-    classifier = VehicleClassifier.from_onnx(args.model)
-    params = AutoCalibrationParams.from_config()
+    if args.workers < 1:
+        raise VehlocError(f"--workers {args.workers}: must be at least 1")
     splits = ["dev", "heldout"] if args.split == "all" else [args.split]
     cases = [Case(split, scene, seed) for split in splits for scene, seed in SPLITS[split]
              if args.only is None or scene in args.only]
+    for scene in {case.scene for case in cases}:
+        LocalizeSettings.compose(localize_overrides(scene) + args.set)  # a bad --set refused before any case runs
+    if not args.model.is_file():
+        raise VehlocError(f"--model {args.model}: no such file")
+    VehicleClassifier.from_onnx(args.model)  # a bad model refused here
     if args.report:
         write_report(args.out, pd.read_csv(args.out / "auto_calibration.csv"),
                      pd.read_csv(args.out / "vehicles_needed.csv"), args.model.name)
         return
+    params = AutoCalibrationParams.from_config()
+    jobs = [(case, args.out / case.name, args.model, params, args.force, args.set) for case in cases]
+    started = time.perf_counter()
     rows, needed = [], []
-    for number, case in enumerate(cases, 1):
-        started = time.perf_counter()
-        case_rows, case_needed = run_case(case, args.out / case.name, classifier, params, args.force)
-        rows += case_rows
-        needed += case_needed
+
+    def record(number: int, case: Case, case_rows: list[dict[str, object]], case_needed: list[dict[str, object]]) -> None:
+        rows.extend(case_rows)
+        needed.extend(case_needed)
         first = case_rows[0]
         print(f"[{number}/{len(cases)}] {case.name} ({case.split}): "
               + (f"scale {first['scale_error_percent']:+.2f} %, focal {first['focal_error_percent']:+.2f} %, "
@@ -362,6 +381,17 @@ def main() -> None:
         write_text(args.out / "auto_calibration.csv", table.to_csv(index=False, float_format="%.4f"))
         write_text(args.out / "vehicles_needed.csv", needed_table.to_csv(index=False, float_format="%.4f"))
         write_report(args.out, table, needed_table, args.model.name)
+
+    if args.workers == 1:
+        for number, job in enumerate(jobs, 1):
+            record(number, job[0], *run_case(*job))
+    else:
+        spawn = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(args.workers, mp_context=spawn, initializer=start_worker, initargs=(None,)) as pool:
+            with single_threaded_children():
+                futures = [pool.submit(run_case, *job) for job in jobs]
+            for number, (job, future) in enumerate(zip(jobs, futures), 1):
+                record(number, job[0], *future.result())
     print((args.out / "auto_calibration.md").read_text())
 
 
