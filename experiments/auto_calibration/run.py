@@ -25,9 +25,7 @@ from __future__ import annotations
 
 import argparse
 import io
-import multiprocessing
 import time
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -36,8 +34,9 @@ import pandas as pd
 
 from vehloc.atomic import write_bytes, write_text
 from vehloc.benchmark.oracle import catalog_metadata
-from vehloc.benchmark.suite import single_threaded_children, start_worker
+from vehloc.benchmark.side_by_side import in_order, worker_classifier
 from vehloc.demo.table2_cases import calibrate_case, render_case, scene_spec
+from vehloc.errors import VehlocError, exit_on_error
 from vehloc.geometry.auto_calibration import combine_heights
 from vehloc.geometry.outcome import FailedEstimate
 from vehloc.geometry.camera import PinholeCamera
@@ -62,7 +61,6 @@ from vehloc.geometry.pipeline.tracker import VehicleTrack
 from vehloc.geometry.pipeline.video_localization import localize_video
 from vehloc.geometry.truth import SceneTruth, read_scene_truth
 from vehloc.infer.classifier import VehicleClassifier
-from vehloc.errors import VehlocError, exit_on_error
 from vehloc.tables import markdown_table
 
 SETUPS = ["traffic_cam_a_1080p", "traffic_cam_b_1080p", "traffic_cam_c_1080p", "traffic_cam_d_720p",
@@ -212,11 +210,11 @@ def pooled_needed(out: Path, table: pd.DataFrame, seed: int = 0) -> pd.DataFrame
     return pd.DataFrame(rows)
 
 
-def run_case(case: Case, folder: Path, model: Path, params: AutoCalibrationParams, force: bool,
+def run_case(case: Case, folder: Path, params: AutoCalibrationParams, force: bool,
              overrides: list[str]) -> tuple[list[dict[str, object]], list[dict[str, object]]]:
     """The case's rows (one per scale source, the speeds beside the recognised one) and its vehicles-needed rows,
-    with the classifier exported to `model` and `overrides` beside the size's localization settings."""
-    classifier = VehicleClassifier.from_onnx(model)
+    with the process's classifier (`in_order`'s) and `overrides` beside the size's localization settings."""
+    classifier = worker_classifier()
     spec = scene_spec(case.scene, [f"scene.traffic.seed={case.seed}", f"scene.seed={case.seed}"])
     if force or not (folder / "scene" / "gt_data.json").is_file():
         render_case(spec, folder, 0.5 if low_resolution(case.scene) else 2.0)
@@ -363,13 +361,13 @@ def main() -> None:
                      pd.read_csv(args.out / "vehicles_needed.csv"), args.model.name)
         return
     params = AutoCalibrationParams.from_config()
-    jobs = [(case, args.out / case.name, args.model, params, args.force, args.set) for case in cases]
+    jobs = [(case, args.out / case.name, params, args.force, args.set) for case in cases]
     started = time.perf_counter()
     rows, needed = [], []
-
-    def record(number: int, case: Case, case_rows: list[dict[str, object]], case_needed: list[dict[str, object]]) -> None:
-        rows.extend(case_rows)
-        needed.extend(case_needed)
+    for number, (case, (case_rows, case_needed)) in enumerate(zip(cases, in_order(run_case, jobs, args.workers,
+                                                                                  args.model)), 1):
+        rows += case_rows
+        needed += case_needed
         first = case_rows[0]
         print(f"[{number}/{len(cases)}] {case.name} ({case.split}): "
               + (f"scale {first['scale_error_percent']:+.2f} %, focal {first['focal_error_percent']:+.2f} %, "
@@ -381,17 +379,6 @@ def main() -> None:
         write_text(args.out / "auto_calibration.csv", table.to_csv(index=False, float_format="%.4f"))
         write_text(args.out / "vehicles_needed.csv", needed_table.to_csv(index=False, float_format="%.4f"))
         write_report(args.out, table, needed_table, args.model.name)
-
-    if args.workers == 1:
-        for number, job in enumerate(jobs, 1):
-            record(number, job[0], *run_case(*job))
-    else:
-        spawn = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(args.workers, mp_context=spawn, initializer=start_worker, initargs=(None,)) as pool:
-            with single_threaded_children():
-                futures = [pool.submit(run_case, *job) for job in jobs]
-            for number, (job, future) in enumerate(zip(jobs, futures), 1):
-                record(number, job[0], *future.result())
     print((args.out / "auto_calibration.md").read_text())
 
 

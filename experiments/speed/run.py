@@ -11,10 +11,9 @@ The development cases (traffic seed 0 at each size) are the ones the speed's set
 cases (seeds 100 on) were never looked at while choosing them. `--true-model` adds, per case, the same traffic of one
 catalog model (the Honda Spirior) with that model named for every vehicle: the geometry's error apart from the
 classifier's. `--cases` runs other seeds instead (any seed but 0 is held out), `--workers` that many cases side by
-side; a case that fails is a row saying why. Writes into `--out`: per case its folder (`scene/`, `calibration/`, `localize/`, `score/`), and
-`speed.csv`, `speed.md` (the table, the bars per case and over each split's cases pooled, the field's
-figures) and `speed.png` (errors by case, measured
-against true speed). Cases already rendered and calibrated in `--out` are reused (`--force` redoes them).
+side; a case that fails is a row saying why. Writes into `--out`: per case its folder (`scene/`, `calibration/`,
+`localize/`, `score/`), and `speed.csv`, `speed_pooled.csv`, `speed.md` (the table, the bars per case and over each
+split's cases pooled, the field's figures) and `speed.png` (errors by case, measured against true speed). Cases already rendered and calibrated in `--out` are reused (`--force` redoes them).
 """
 
 from __future__ import annotations
@@ -22,10 +21,8 @@ from __future__ import annotations
 import argparse
 import io
 import json
-import multiprocessing
 import re
 import time
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -34,8 +31,9 @@ import pandas as pd
 
 from vehloc.atomic import write_bytes, write_text
 from vehloc.benchmark.oracle import TrueModelClassifier
-from vehloc.benchmark.suite import start_worker, single_threaded_children
+from vehloc.benchmark.side_by_side import in_order, worker_classifier
 from vehloc.demo.table2_cases import calibrate_case, render_case, scene_spec
+from vehloc.errors import VehlocError, exit_on_error
 from vehloc.geometry.camera_calibration import read_calibration
 from vehloc.geometry.pipeline.brno_files import read_ground_truth, read_results
 from vehloc.geometry.pipeline.localize import Localizer
@@ -44,7 +42,6 @@ from vehloc.geometry.pipeline.speed_eval import score_speeds
 from vehloc.geometry.pipeline.speed_report import PUBLISHED, write_score
 from vehloc.geometry.pipeline.video_localization import localize_video
 from vehloc.infer.classifier import VehicleClassifier
-from vehloc.errors import VehlocError, exit_on_error
 from vehloc.tables import markdown_table
 
 TRUE_MODEL_ID = 9  # the Honda Spirior, the paper's test car
@@ -138,16 +135,17 @@ def parse_cases(items: list[str]) -> list[tuple[str, int]]:
     return pairs
 
 
-def run_case(case: Case, folder: Path, model: Path, duration_s: float, force: bool,
-             overrides: list[str]) -> dict[str, object]:
-    """One case prepared, measured and scored: its row of the table, or a row saying why it failed (one case's
-    failure is that case's result)."""
+def run_case(case: Case, folder: Path, duration_s: float, force: bool, overrides: list[str]) -> dict[str, object]:
+    """One case prepared, measured (with the process's classifier, `in_order`'s) and scored: its row of the table,
+    or a row saying why it failed (one case's failure is that case's result)."""
+    classifier = worker_classifier()
     try:
         prepare(case, folder, duration_s, force)
-        return {"case": case.name, **measure(case, folder, VehicleClassifier.from_onnx(model), overrides)}
+        return {"case": case.name, **measure(case, folder, classifier, overrides)}
     except Exception as err:  # noqa: BLE001
         return {"case": case.name, "split": case.split, "scene": case.scene, "seed": case.seed,
-                "classifier": "true model" if case.true_model else model.name, "error": f"{type(err).__name__}: {err}"}
+                "classifier": "true model" if case.true_model else classifier.source.split("/")[-1],
+                "error": f"{type(err).__name__}: {err}"}
 
 
 def pooled(table: pd.DataFrame, folders: dict[str, Path]) -> pd.DataFrame:
@@ -277,28 +275,14 @@ def main() -> None:
     for scene in {case.scene for case in cases}:
         LocalizeSettings.compose(SETTINGS[scene] + args.set)  # a bad --set refused before any case runs
     folders = {case.name: args.out / case.name for case in cases}
-    jobs = [(case, folders[case.name], args.model, args.duration_s, args.force, args.set) for case in cases]
-    started = time.perf_counter()
-
-    def report(number: int, row: dict[str, object]) -> None:
+    jobs = [(case, folders[case.name], args.duration_s, args.force, args.set) for case in cases]
+    started, rows = time.perf_counter(), []
+    for number, row in enumerate(in_order(run_case, jobs, args.workers, args.model), 1):
+        rows.append(row)
         verdict = (f"error: {row['error']}" if "error" in row else f"recall {row['recall']:.3f}, median / mean "
                    f"{row['median_error_kmh']:.2f} / {row['mean_error_kmh']:.2f} km/h")
         print(f"[{number}/{len(cases)}] {row['case']} ({row['split']}): {verdict}, "
               f"{time.perf_counter() - started:.0f} s", flush=True)
-
-    rows = []
-    if args.workers == 1:
-        for number, job in enumerate(jobs, 1):
-            rows.append(run_case(*job))
-            report(number, rows[-1])
-    else:
-        spawn = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(args.workers, mp_context=spawn, initializer=start_worker, initargs=(None,)) as pool:
-            with single_threaded_children():
-                futures = [pool.submit(run_case, *job) for job in jobs]
-            for number, future in enumerate(futures, 1):
-                rows.append(future.result())
-                report(number, rows[-1])
     table = pd.DataFrame(rows)
     table = table.reindex(columns=list(dict.fromkeys([*table.columns, "recall", "error"])))
     scored = table.dropna(subset=["recall"])

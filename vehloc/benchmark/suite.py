@@ -3,23 +3,17 @@ side by side in worker processes, each case's row (and picture, where it falls s
 
 from __future__ import annotations
 
-import multiprocessing
-import os
 from collections.abc import Callable, Iterator, Mapping
-from contextlib import contextmanager
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-import cv2
-
 from vehloc.benchmark.cases import BenchmarkCase, DrawParams, cameras_from_config, draw_case
 from vehloc.benchmark.runner import CaseOutcome, run_case, thumbnail
+from vehloc.benchmark.side_by_side import in_order, worker_classifier
 from vehloc.benchmark.visibility import VisibilityParams
 from vehloc.config import ConfigError, SettingError, build_params
 from vehloc.geometry.pipeline.settings import LocalizeSettings
-from vehloc.infer.classifier import VehicleClassifier
 from vehloc.synth.catalog import model_by_id
 from vehloc.synth.road import RoadLayout
 from vehloc.synth.scene import CameraSpec
@@ -77,40 +71,11 @@ class BenchmarkSettings:
                    draw, visibility)
 
 
-_worker_classifier: VehicleClassifier | None = None
-
-
-def _load_classifier(model: Path | None) -> None:
-    """The classifier the cases of this process use, loaded once (None: each car's true model)."""
-    global _worker_classifier
-    _worker_classifier = None if model is None else VehicleClassifier.from_onnx(model)
-
-
-def start_worker(model: Path | None) -> None:
-    """A worker process: one OpenCV thread (the workers share the cores), its classifier."""
-    cv2.setNumThreads(1)
-    _load_classifier(model)
-
-
-@contextmanager
-def single_threaded_children() -> Iterator[None]:
-    """OpenMP one thread in the processes started inside, the caller's environment restored after."""
-    before = os.environ.get("OMP_NUM_THREADS")
-    os.environ["OMP_NUM_THREADS"] = "1"
-    try:
-        yield
-    finally:
-        if before is None:
-            del os.environ["OMP_NUM_THREADS"]
-        else:
-            os.environ["OMP_NUM_THREADS"] = before
-
-
 def _run(settings: BenchmarkSettings, split: str, case: BenchmarkCase) -> CaseOutcome:
     """One case; a case that fails on its own is a row saying how, not the end of the run."""
     try:
         outcome = run_case(case, split, settings.site, settings.cameras[case.camera_name], settings.draw,
-                           settings.visibility, settings.localize, _worker_classifier)
+                           settings.visibility, settings.localize, worker_classifier())
     except Exception as err:  # noqa: BLE001 - one case's failure is that case's result
         return CaseOutcome(failed_row(case, split, settings.cameras[case.camera_name], err), None)
     if outcome.picture_bgr is None:
@@ -152,21 +117,8 @@ def run_benchmark(settings: BenchmarkSettings, report: Callable[[int, int, CaseO
     """Run every case (`settings.workers` side by side), yielding the outcomes in seed order; `report` is told
     of each as it completes (its number, the total, the outcome)."""
     cases = drawn_cases(settings)
-    if settings.workers == 1:
-        _load_classifier(settings.model)
-        for number, (split, case) in enumerate(cases, 1):
-            outcome = _run(settings, split, case)
-            if report:
-                report(number, len(cases), outcome)
-            yield outcome
-        return
-    spawn = multiprocessing.get_context("spawn")  # a forked child of a process with OpenMP threads can hang
-    with ProcessPoolExecutor(settings.workers, mp_context=spawn, initializer=start_worker,
-                             initargs=(settings.model,)) as pool:
-        with single_threaded_children():  # the workers start as the cases are submitted
-            futures = [pool.submit(_run, settings, split, case) for split, case in cases]
-        for number, future in enumerate(futures, 1):
-            outcome = future.result()
-            if report:
-                report(number, len(cases), outcome)
-            yield outcome
+    outcomes = in_order(_run, [(settings, split, case) for split, case in cases], settings.workers, settings.model)
+    for number, outcome in enumerate(outcomes, 1):
+        if report:
+            report(number, len(cases), outcome)
+        yield outcome
