@@ -137,6 +137,30 @@ def test_the_results_file_reads_back_to_the_speeds_of_the_tracks(scene, tmp_path
         assert again.speed_kmh == pytest.approx(vehicle.speed.speed_kmh, rel=0.001)  # the issue's 0.1 %
 
 
+def test_the_results_report_the_steady_motion_where_the_followed_box_holds_it(scene) -> None:
+    """A car measured in frames 0-19 and 41-59; in frames 20-40 its box merged with another's (no used point, the box
+    holds it), in 60-69 its track went on to another vehicle (a box far from it): the results report its steady
+    motion through 20-40, exact for a car at a constant speed (1e-6 mm), and nothing in 60-69."""
+    camera = scene.camera.camera()
+    calibration = CameraCalibration.from_homography(camera.road_to_image().matrix, (1280, 720), 0.5, "truth")
+    frames = np.arange(70)
+    truth_mm = np.column_stack([np.full(70, 1750.0), 60000.0 - 1000.0 * frames])  # 90 km/h at 25 fps
+    pixels = calibration.road_to_image(truth_mm)
+    boxes = np.column_stack([pixels - 40.0, pixels + 40.0]).astype(int)
+    boxes[60:] = [1000, 50, 1100, 120]
+    measured = np.r_[0:20, 41:60]
+    speed = fit_speed(truth_mm[measured], measured / 25.0, 0.0, 6, 3000.0)
+    assert isinstance(speed, SpeedFit) and speed.speed_kmh == pytest.approx(90.0)
+    vehicle = VehicleSpeed(1, 0, 69, 25.0, VehiclePath(measured, truth_mm[measured], pixels[measured], boxes[measured]),
+                           speed, seen_frames=frames, seen_boxes_px=boxes)
+    reported, points_mm = vehicle.reported(calibration.road_to_image)
+    assert reported.tolist() == list(range(60))
+    assert np.abs(points_mm - truth_mm[:60]).max() < 1e-6
+    rows = vehicle.trajectory_rows(calibration.road_to_image)
+    assert [r["frame"] for r in rows if r["predicted"]] == list(range(20, 41))
+    assert all(r["used"] for r in rows if not r["predicted"]) and len(rows) == 60
+
+
 def test_the_benchmark_pickle_is_read_as_the_scorer_reads_it(truth_file: Path, tmp_path: Path) -> None:
     content = json.loads(truth_file.read_text())
     pickled = tmp_path / "gt_data.pkl"

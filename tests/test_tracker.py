@@ -107,6 +107,26 @@ def test_without_sharing_the_larger_track_takes_the_merged_box_and_goes_on_as_th
     assert t.started > 2 or fast.box != _car(100 + 6 * 39, 200) or slow.box != _car(160 + 39, 185)
 
 
+def test_a_vehicle_hidden_in_anothers_blob_keeps_its_track_through_the_merge() -> None:
+    """While the two blobs are one box (frames 12-27), the larger track takes it and the other is hidden in it: kept
+    (not lost after `max_lost_frames`), with the frames and the box it was hidden in; when they part, each track takes
+    its own vehicle again and no track starts. With `max_hidden_frames` 0 the other track is removed."""
+    for max_hidden_frames in (50, 0):
+        t = StoppedVehicleTracker(4, TrackerParams.from_config(motion_frames=5, max_lost_frames=5,
+                                                               max_hidden_frames=max_hidden_frames))
+        fast, slow = sorted(t.update(_overtaking(0), 0).seen, key=lambda track: track.box.y0, reverse=True)
+        removed = []
+        for frame in range(1, 40):
+            removed += t.update(_overtaking(frame), frame).removed
+        if max_hidden_frames:
+            assert removed == [] and t.started == 2
+            assert slow.hidden_frames == list(range(12, 28)) and fast.hidden_frames == []
+            assert slow.hidden_boxes == [_overtaking(f)[0] for f in range(12, 28)]
+            assert fast.box == _car(100 + 6 * 39, 200) and slow.box == _car(160 + 39, 185)
+        else:
+            assert removed == [slow] and slow.frames[-1] == 11 and t.started == 3
+
+
 def _stop_frame(boxes: list[Box], flicker_frames: int = 3) -> int | None:
     """The frame at which the tracker (10 frames, 2 % of the diagonal, `flicker_frames` stray frames forgiven) first
     calls the one vehicle of `boxes` still."""

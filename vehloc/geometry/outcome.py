@@ -25,6 +25,7 @@ class ReasonCode(StrEnum):
     POOR_FIT = "poor_fit"
     NOT_TRACKED_TO_STOP = "not_tracked_to_stop"
     BOX_NOT_MODEL_SIZE = "box_not_model_size"
+    PATH_ACROSS_TRAFFIC = "path_across_traffic"
 
 
 @dataclass(frozen=True)

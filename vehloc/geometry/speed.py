@@ -46,6 +46,14 @@ class SpeedFit:
     dropped: int
     used: np.ndarray
     """(N,) bool: which of the points given were used (finite and not strays)."""
+    origin_mm: np.ndarray
+    """(2,) the motion's road position at time 0 (mm)."""
+    velocity_mm_s: np.ndarray
+    """(2,) the motion's velocity on the road (mm/s)."""
+
+    def positions_mm(self, times_s: np.ndarray) -> np.ndarray:
+        """(N, 2) where the motion puts the vehicle at `times_s` (N,), mm."""
+        return self.origin_mm + np.outer(np.asarray(times_s, dtype=float), self.velocity_mm_s)
 
 
 def fit_speed(points_mm: np.ndarray, times_s: np.ndarray, scale_sigma_fraction: float, min_points: int,
@@ -92,7 +100,7 @@ def fit_speed(points_mm: np.ndarray, times_s: np.ndarray, scale_sigma_fraction: 
     scale_sigma_kmh = speed_kmh * scale_sigma_fraction
     return SpeedFit(speed_kmh, float(np.hypot(fit_sigma_kmh, scale_sigma_kmh)), float(fit_sigma_kmh),
                     float(scale_sigma_kmh), heading_of(velocity_mm_s), len(points), duration_s, distance_mm / 1000.0,
-                    residual_mm, dropped, used)
+                    residual_mm, dropped, used, points.mean(axis=0) - times.mean() * velocity_mm_s, velocity_mm_s)
 
 
 def _least_median_motion(points_mm: np.ndarray, times_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -88,11 +88,11 @@ def results_json(vehicles: list[VehicleSpeed], calibration: BrnoCalibration, roa
                  video: str, image_size_px: tuple[int, int], fps: float) -> str:
     """The results file of a video: every vehicle with a speed, its road points as image points (`posX`, `posY`,
     mapped by `road_to_image`: the pinhole camera the calibration block describes, so that the scorer's projection
-    gives them back) per frame (`frames`), those its speed was measured on (`VehicleSpeed.used`); beside the
+    gives them back) per frame it was followed in (`frames`; `VehicleSpeed.reported`); beside the
     benchmark's fields, the video, its image size and frame rate."""
     cars = []
     for v in (v for v in vehicles if v.status == SpeedStatus.MEASURED):
-        frames, points_mm = v.path.frames[v.used], v.path.points_mm[v.used]
+        frames, points_mm = v.reported(road_to_image)
         pixels = road_to_image(points_mm) if len(frames) else np.zeros((0, 2))
         if len(frames):
             cars.append({"id": int(v.track_id), "frames": [int(f) for f in frames],

@@ -132,8 +132,8 @@ def write_speed_files(vehicles: list[VehicleSpeed], calibration: CameraCalibrati
     import pandas as pd  # imported on use: a CLI checks its input before loading pandas
 
     write_text(out_dir / "tracks.csv", pd.DataFrame([v.row() for v in vehicles]).to_csv(index=False, float_format="%.3f"))
-    rows = [row for v in vehicles for row in v.trajectory_rows()]
-    columns = ["track_id", "frame", "time_s", "x_mm", "y_mm", "x_px", "y_px", "used"]
+    rows = [row for v in vehicles for row in v.trajectory_rows(calibration.road_to_image)]
+    columns = ["track_id", "frame", "time_s", "x_mm", "y_mm", "x_px", "y_px", "used", "predicted"]
     write_text(out_dir / "trajectories.csv", pd.DataFrame(rows, columns=columns).to_csv(index=False, float_format="%.3f"))
     write_bytes(out_dir / "speeds.png", speed_plot(vehicles, Path(video).name))
     if overlays:

@@ -8,7 +8,7 @@ known."""
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from enum import StrEnum
 
 import numpy as np
@@ -19,6 +19,7 @@ from vehloc.geometry.camera_calibration import CameraCalibration
 from vehloc.geometry.motion import path_heading
 from vehloc.geometry.outcome import NotPlaced, ReasonCode
 from vehloc.geometry.pipeline.tracker import VehicleTrack
+from vehloc.geometry.projective import ProjectiveTransform
 from vehloc.geometry.speed import SpeedFit, fit_speed
 from vehloc.geometry.uncertainty import road_mm_per_px
 from vehloc.infer.classifier import VehicleClassifier
@@ -26,6 +27,23 @@ from vehloc.infer.classifier import VehicleClassifier
 REFERENCES = ("shape_top", "shape_bottom", "box_bottom")
 """A vehicle's reference point: the footprint centre from its box's top or bottom and its model's shape, or the road
 point under its box's bottom as it is."""
+
+
+@dataclass(frozen=True)
+class StitchParams:
+    """When two measured tracks are one vehicle (`vehloc.geometry.pipeline.stitching`; `stitch` of
+    `conf/localize/speed/default.yaml`)."""
+
+    max_gap_s: float
+    max_offset_mm: float
+    max_speed_difference_fraction: float
+    ends_points: int
+
+    def __post_init__(self) -> None:
+        check_range("max_gap_s", self.max_gap_s, 0.0)
+        check_range("max_offset_mm", self.max_offset_mm, 0.0)
+        check_range("max_speed_difference_fraction", self.max_speed_difference_fraction, 0.0)
+        check_range("ends_points", self.ends_points, 1)
 
 
 @dataclass(frozen=True)
@@ -44,9 +62,12 @@ class SpeedParams:
     reference_min_probability: float
     min_reference_vehicles: int
     min_excess_sigma: float
+    max_heading_gap_deg: float
+    stitch: StitchParams
 
     def __post_init__(self) -> None:
         check_range("candidates", self.candidates, 1)
+        check_range("max_heading_gap_deg", self.max_heading_gap_deg, 0.0, 90.0, low_open=True)
         check_range("reference_min_probability", self.reference_min_probability, 0.0, 1.0)
         check_range("min_reference_vehicles", self.min_reference_vehicles, 1)
         check_range("min_excess_sigma", self.min_excess_sigma, 0.0, 1.0, low_open=True)
@@ -126,6 +147,14 @@ class VehicleSpeed:
     lane: int | None = None
     candidates: tuple[ModelCandidate, ...] = ()
     model_source: ModelSource = ModelSource.VOTE
+    joined_track_ids: tuple[int, ...] = ()
+    """The tracks it was joined from, in order, where two or more were one vehicle (`stitching`); empty otherwise."""
+    seen_frames: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    """The frames its track was followed in (its box seen, cut by the frame's edge or not, its own or merged with
+    another vehicle's, or the box of another's blob it was hidden in): where its path has no used point, its steady
+    motion is reported at those of them whose box holds it."""
+    seen_boxes_px: np.ndarray = field(default_factory=lambda: np.zeros((0, 4), int))
+    """(N, 4) the box at each of `seen_frames` (x0, y0, x1, y1 px, exclusive)."""
 
     def with_candidate(self, candidate: ModelCandidate, source: ModelSource) -> VehicleSpeed:
         """The vehicle as `candidate`'s model, path and speed make it."""
@@ -151,6 +180,7 @@ class VehicleSpeed:
             "first_time_s": self.first_frame / self.fps, "last_time_s": self.last_frame / self.fps, "lane": self.lane,
             "model_id": self.model_id, "make": self.make, "model": self.model, "probability": self.probability,
             "model_source": self.model_source.value,
+            "joined_track_ids": " ".join(str(i) for i in self.joined_track_ids),
             "voted_model_id": self.candidates[0].model_id if self.candidates else self.model_id,
             **dict(zip(("length_mm", "width_mm", "height_mm"), self.dims_mm or (None, None, None))),
             **{name: None if fit is None else getattr(fit, name) for name in FIT_COLUMNS},
@@ -165,12 +195,49 @@ class VehicleSpeed:
         """(N,) bool: the path's points its speed was measured on (all of them without a speed)."""
         return self.speed.used if isinstance(self.speed, SpeedFit) else np.ones(len(self.path.frames), bool)
 
-    def trajectory_rows(self) -> list[dict[str, object]]:
-        """Its rows of `trajectories.csv`: one per frame of its path, saying whether its speed used it."""
-        return [{"track_id": self.track_id, "frame": int(frame), "time_s": frame / self.fps, "x_mm": point[0],
-                 "y_mm": point[1], "x_px": pixel[0], "y_px": pixel[1], "used": bool(used)}
+    def reported(self, road_to_image: ProjectiveTransform) -> tuple[np.ndarray, np.ndarray]:
+        """Where it was in every frame it was followed in, as its results report it: the frames (N,) and road points
+        (N, 2) mm, its measured reference point where its speed used one, else where its steady motion (its speed's
+        fit) put it, where the box followed at that frame holds that point's pixel (`road_to_image`): the frames its box
+        was cut by the frame's edge, held another vehicle too (their blobs merged, or it was hidden in the other's),
+        or strayed from its motion; not those where its track had gone on to another vehicle. Only its used points
+        without a speed."""
+        frames, points = self.path.frames[self.used], self.path.points_mm[self.used]
+        if not isinstance(self.speed, SpeedFit):
+            return frames, points
+        gaps = ~np.isin(self.seen_frames, frames)
+        steady = self.speed.positions_mm(self.seen_frames[gaps] / self.fps)
+        pixels = road_to_image(steady) if len(steady) else np.zeros((0, 2))
+        boxes = self.seen_boxes_px[gaps]
+        held = ((pixels[:, 0] >= boxes[:, 0]) & (pixels[:, 0] < boxes[:, 2]) & (pixels[:, 1] >= boxes[:, 1])
+                & (pixels[:, 1] < boxes[:, 3]))
+        all_frames = np.concatenate([frames, self.seen_frames[gaps][held]])
+        order = np.argsort(all_frames, kind="stable")
+        return all_frames[order], np.concatenate([points.reshape(-1, 2), steady[held]])[order]
+
+    def trajectory_rows(self, road_to_image: ProjectiveTransform) -> list[dict[str, object]]:
+        """Its rows of `trajectories.csv`: one per frame of its path, saying whether its speed used it, and one per
+        frame its steady motion is reported at instead (`predicted`; `reported`), mapped to pixels by
+        `road_to_image`."""
+        rows = [{"track_id": self.track_id, "frame": int(frame), "time_s": frame / self.fps, "x_mm": point[0],
+                 "y_mm": point[1], "x_px": pixel[0], "y_px": pixel[1], "used": bool(used), "predicted": False}
                 for frame, point, pixel, used in zip(self.path.frames, self.path.points_mm, self.path.points_px,
                                                      self.used)]
+        frames, points = self.reported(road_to_image)
+        gaps = ~np.isin(frames, self.path.frames[self.used])
+        pixels = road_to_image(points[gaps]) if gaps.any() else np.zeros((0, 2))
+        rows += [{"track_id": self.track_id, "frame": int(frame), "time_s": frame / self.fps, "x_mm": point[0],
+                  "y_mm": point[1], "x_px": pixel[0], "y_px": pixel[1], "used": False, "predicted": True}
+                 for frame, point, pixel in zip(frames[gaps], points[gaps], pixels)]
+        return sorted(rows, key=lambda row: (row["frame"], row["predicted"]))
+
+
+def seen_boxes(track: VehicleTrack) -> dict[str, np.ndarray]:
+    """`VehicleSpeed`'s `seen_frames` and `seen_boxes_px` of a track: the frames it was seen or hidden in, in order,
+    and their boxes."""
+    pairs = sorted(zip(track.frames + track.hidden_frames, track.boxes + track.hidden_boxes), key=lambda p: p[0])
+    return {"seen_frames": np.array([f for f, _ in pairs], dtype=int).reshape(-1),
+            "seen_boxes_px": np.array([[b.x0, b.y0, b.x1, b.y1] for _, b in pairs], dtype=int).reshape(-1, 4)}
 
 
 EMPTY_PATH = VehiclePath(np.zeros(0, int), np.zeros((0, 2)), np.zeros((0, 2)), np.zeros((0, 4), int))
@@ -194,7 +261,8 @@ class TrackSpeeds:
         frames = np.array(track.ground_frames, dtype=int)
         bottoms = np.array(track.ground_points_mm, dtype=float).reshape(-1, 2)
         vehicle = VehicleSpeed(track.track_id, track.frames[0], track.last_frame, self.fps, EMPTY_PATH,
-                               NotPlaced(ReasonCode.TOUCHES_EDGE, "the frame's edge cut it in every frame"))
+                               NotPlaced(ReasonCode.TOUCHES_EDGE, "the frame's edge cut it in every frame"),
+                               **seen_boxes(track))
         if track.votes.empty:
             return replace(vehicle, speed=NotPlaced(ReasonCode.TOO_SMALL_TO_CLASSIFY,
                                                     "its box was never big enough to classify"))
@@ -258,6 +326,11 @@ class TrackSpeeds:
                                        self.box_block_px) <= self.params.max_box_mismatch
         return kept, centres, excesses
 
+    def refit(self, path: VehiclePath) -> SpeedFit | NotPlaced:
+        """The speed through a path (one joined from two tracks' used points)."""
+        return fit_speed(path.points_mm, path.frames / self.fps, self.scale_sigma_fraction(path.points_mm),
+                         self.params.min_points, self.params.min_distance_mm)
+
     def scale_sigma_fraction(self, points_mm: np.ndarray) -> float:
         """The calibration's relative error over a path: its reprojection error at the path's middle, in mm on the
         road, at both ends, over the path's length, and its scale's own (an automatic calibration's), in quadrature."""
@@ -297,3 +370,41 @@ def assign_lanes(vehicles: Sequence[VehicleSpeed], params: SpeedParams) -> list[
             nearest = min(measured, key=lambda j: abs(lateral[j] - lateral[i]))
             lanes[i] = lanes[nearest] if abs(lateral[nearest] - lateral[i]) <= params.lane_gap_mm else None
     return [replace(v, lane=lane) for v, lane in zip(vehicles, lanes)]
+
+
+MIN_TRAFFIC_VEHICLES = 3
+"""The measured vehicles a video needs for the direction of its traffic to be told."""
+
+
+def along_traffic(vehicles: Sequence[VehicleSpeed], params: SpeedParams) -> list[VehicleSpeed]:
+    """The vehicles, those whose steady motion is more than `max_heading_gap_deg` off the direction of the video's
+    traffic (the axis of its measured vehicles' headings, either way along it: their doubled angles' mean, taken again
+    without those off it) not measured: a track whose boxes were of two vehicles in two lanes, its path across them. Left as they are with fewer
+    than `MIN_TRAFFIC_VEHICLES` measured."""
+    headings = np.radians([v.speed.heading_deg for v in vehicles if isinstance(v.speed, SpeedFit)])
+    if len(headings) < MIN_TRAFFIC_VEHICLES:
+        return list(vehicles)
+    axis = traffic_axis(headings, np.ones(len(headings), bool))
+    axis = traffic_axis(headings, axis_gap_deg(headings, axis) <= params.max_heading_gap_deg)
+    result = []
+    for v in vehicles:
+        if isinstance(v.speed, SpeedFit):
+            gap_deg = float(axis_gap_deg(np.radians([v.speed.heading_deg]), axis)[0])
+            if gap_deg > params.max_heading_gap_deg:
+                v = replace(v, speed=NotPlaced(ReasonCode.PATH_ACROSS_TRAFFIC, (
+                    f"its path is {gap_deg:.1f} deg off the traffic's direction, more than {params.max_heading_gap_deg:g} "
+                    f"(speed.max_heading_gap_deg): its boxes were of two vehicles, in two lanes")))
+        result.append(v)
+    return result
+
+
+def traffic_axis(headings_rad: np.ndarray, kept: np.ndarray) -> float:
+    """The axis (rad, either way along it) of the `kept` headings: their doubled angles' mean, halved (all of them
+    where none is kept)."""
+    doubled = 2 * (headings_rad[kept] if kept.any() else headings_rad)
+    return float(0.5 * np.arctan2(np.mean(np.sin(doubled)), np.mean(np.cos(doubled))))
+
+
+def axis_gap_deg(headings_rad: np.ndarray, axis_rad: float) -> np.ndarray:
+    """How far each heading is off an axis, either way along it (deg, 0-90)."""
+    return np.degrees(np.abs(np.angle(np.exp(2j * (headings_rad - axis_rad)))) / 2)

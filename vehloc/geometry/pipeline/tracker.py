@@ -1,14 +1,14 @@
 """One track per vehicle, with a lifecycle (as ByteTrack's): a greedy IoU tracker that follows the background
-model's boxes frame to frame, says when a vehicle has stopped, and removes a track once it has been lost for
-`max_lost_frames` frames, with everything it held (its boxes, road path and crops for the vote).
+model's boxes frame to frame (each track's box looked for where its motion takes it, `motion_frames`), says when a
+vehicle has stopped, and removes a track once it has been lost for `max_lost_frames` frames, with everything it held
+(its boxes, road path and crops for the vote).
 
-Two vehicles whose blobs merge (one overtaking the other, seen side by side) make one box for a while. Where
-`max_shared_frames` is on, a track that finds no box of its own where another track's box covers where it should be
-(its box moved on by its motion, `motion_frames`) shares that box with it: neither takes it as its own (it is neither
-vehicle's box), both stay alive while the blob lasts, and when it parts each takes the part nearest where it should
-be. Without
-it the larger track takes the merged box and, when the blob parts, whichever vehicle overlaps it more: a vehicle's
-track can go on as another's."""
+Two vehicles whose blobs merge (one overtaking the other, seen side by side) make one box for a while. The larger
+track takes it; the other, missed where that box covers where it should be, is hidden in it (`max_hidden_frames`):
+kept, its hidden frames and their boxes recorded (its steady motion on the road is reported through them), and
+found again where its motion takes it when the blob parts. Where `max_shared_frames` is on, the two share the box
+instead: neither takes it as its own (it is neither vehicle's box), both stay alive while the blob lasts, and when it
+parts each takes the part nearest where it should be."""
 
 from __future__ import annotations
 
@@ -47,6 +47,16 @@ class VehicleTrack:
     shared_box: Box | None = None
     """The box it shares with other tracks in the last frame (their blobs merged), None when it has its own."""
     shared_frames: int = 0
+    hidden_frames: list[int] = field(default_factory=list)
+    """The frames it was missed in where a box another track took covered where it should be: hidden in that
+    vehicle's blob (side by side, one passing in front of the other), not gone."""
+    hidden_boxes: list[Box] = field(default_factory=list)
+    """The box it was hidden in, at each of `hidden_frames`."""
+
+    @property
+    def last_accounted_frame(self) -> int:
+        """The last frame it was seen or hidden in."""
+        return max(self.last_frame, self.hidden_frames[-1]) if self.hidden_frames else self.last_frame
 
     @property
     def box(self) -> Box:
@@ -100,6 +110,7 @@ class TrackerParams:
     motion_frames: int
     max_shared_frames: int
     shared_min_cover: float
+    max_hidden_frames: int
     fragment_min_inside: float
     fragment_min_iou: float
 
@@ -108,6 +119,7 @@ class TrackerParams:
         check_range("fragment_min_iou", self.fragment_min_iou, 0.0, 1.0)
         check_range("motion_frames", self.motion_frames, 0)
         check_range("max_shared_frames", self.max_shared_frames, 0)
+        check_range("max_hidden_frames", self.max_hidden_frames, 0)
         check_range("shared_min_cover", self.shared_min_cover, 0.0, 1.0, low_open=True)
         check_range("min_iou", self.min_iou, 0.0, 1.0)
         check_range("stop_frames", self.stop_frames, 2)
@@ -174,6 +186,7 @@ class StoppedVehicleTracker:
                               frame_index)
         self.merged(expected, sharing, frame_index)
         self.parted(unmatched, expected, sharing, frame_index)
+        self.hidden(expected, sharing, frame_index)
         for box in unmatched:
             track = VehicleTrack(self._next_id, TrackVotes(self.vote_frames, self.vote_policy))
             track.observe(box, frame_index)
@@ -190,7 +203,8 @@ class StoppedVehicleTracker:
                     track.stopped_at_frame = frame_index
                     stopped.append(track)
             elif (track.shared_frames > self.params.max_shared_frames
-                  or (track.shared_box is None and frame_index - track.last_frame >= self.params.max_lost_frames)):
+                  or (track.shared_box is None
+                      and frame_index - track.last_accounted_frame >= self.params.max_lost_frames)):
                 track.state = TrackState.REMOVED
                 removed.append(track)
                 continue
@@ -258,6 +272,24 @@ class StoppedVehicleTracker:
         for track in self.tracks:  # a third track that took a shared box this frame shares it too
             if track.last_frame == frame_index and track.box in shared:
                 sharing[track.track_id] = track.unobserve()
+
+    def hidden(self, expected: dict[int, Box], sharing: dict[int, Box], frame_index: int) -> None:
+        """A track missed this frame, where a box another track took covers at least `shared_min_cover` of where it
+        should be, is hidden in that vehicle's blob: the frame is one of its `hidden_frames` (its lost frames count
+        from the last frame it was seen or hidden in), for at most `max_hidden_frames` frames since it was last seen."""
+        if self.params.max_hidden_frames == 0:
+            return
+        taken = [t.box for t in self.tracks if t.last_frame == frame_index]
+        for track in self.tracks:
+            if (track.last_frame == frame_index or track.track_id in sharing
+                    or frame_index - track.last_frame > self.params.max_hidden_frames
+                    or frame_index - track.last_accounted_frame >= self.params.max_lost_frames):
+                continue
+            where = expected[track.track_id]
+            cover = [box for box in taken if box.intersection(where).area_px >= self.params.shared_min_cover * where.area_px]
+            if cover:
+                track.hidden_frames.append(frame_index)
+                track.hidden_boxes.append(cover[0])
 
     def parted(self, unmatched: list[Box], expected: dict[int, Box], sharing: dict[int, Box],
                frame_index: int) -> None:

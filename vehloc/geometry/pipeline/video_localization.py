@@ -19,7 +19,8 @@ from vehloc.geometry.pipeline.evaluation import table2_rows, write_case_figures,
 from vehloc.geometry.pipeline.localize import Localizer, Status, VehicleRecord
 from vehloc.geometry.pipeline.speed_files import write_speed_files
 from vehloc.geometry.pipeline.model_choice import choose_models
-from vehloc.geometry.pipeline.track_speed import TrackSpeeds, VehicleSpeed, assign_lanes
+from vehloc.geometry.pipeline.stitching import stitch
+from vehloc.geometry.pipeline.track_speed import TrackSpeeds, VehicleSpeed, along_traffic, assign_lanes
 from vehloc.geometry.truth import SceneTruth
 from vehloc.geometry.pipeline.video import VideoFrames
 
@@ -103,6 +104,8 @@ def localize_video(localizer: Localizer, video: str | Path, out_dir: Path, truth
     summary = ""
     if localizer.speed_params.enabled:
         vehicles = choose_models(sorted(vehicles, key=lambda v: v.track_id), localizer.speed_params)
+        vehicles = stitch(vehicles, localizer.speed_params.stitch, speeds.refit)
+        vehicles = along_traffic(vehicles, localizer.speed_params)
         vehicles = assign_lanes(vehicles, localizer.speed_params)
         summary = write_speed_files(vehicles, localizer.calibration, out_dir, str(video), info.fps, pictures)
     table = None

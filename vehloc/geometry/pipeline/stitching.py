@@ -1,0 +1,87 @@
+"""One vehicle, two tracks: where a track lost its vehicle (hidden in another's blob, its track gone on to the other
+vehicle when the blobs parted) a new track starts on it. Their two measured paths are joined where the later one
+starts where the earlier one's steady motion puts the vehicle then, the earlier one ends where the later one's puts
+it, and their speeds agree: the road's frame tells it far better than the boxes in the image did."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import replace
+
+import numpy as np
+
+from vehloc.geometry.pipeline.track_speed import StitchParams, VehiclePath, VehicleSpeed
+from vehloc.geometry.speed import SpeedFit
+
+
+def used_path(vehicle: VehicleSpeed) -> tuple[np.ndarray, np.ndarray]:
+    """The frames (N,) and road points (N, 2) mm its speed used."""
+    return vehicle.path.frames[vehicle.used], vehicle.path.points_mm[vehicle.used]
+
+
+def offset_mm(earlier: VehicleSpeed, later: VehicleSpeed, ends_points: int) -> float:
+    """How far apart the two paths meet (mm): the larger of the median distances of the later path's first
+    `ends_points` points from the earlier one's steady motion and of the earlier path's last points from the later
+    one's; infinite where either has no speed."""
+    if not (isinstance(earlier.speed, SpeedFit) and isinstance(later.speed, SpeedFit)):
+        return float("inf")
+    first_frames, first_points = (a[:ends_points] for a in used_path(later))
+    last_frames, last_points = (a[-ends_points:] for a in used_path(earlier))
+    ahead = np.linalg.norm(first_points - earlier.speed.positions_mm(first_frames / earlier.fps), axis=1)
+    back = np.linalg.norm(last_points - later.speed.positions_mm(last_frames / later.fps), axis=1)
+    return float(max(np.median(ahead), np.median(back)))
+
+
+def may_join(earlier: VehicleSpeed, later: VehicleSpeed, params: StitchParams) -> bool:
+    """Whether `later`'s measured path begins after `earlier`'s ends, within `max_gap_s`, at a speed within
+    `max_speed_difference_fraction` of it."""
+    if not (isinstance(earlier.speed, SpeedFit) and isinstance(later.speed, SpeedFit)):
+        return False
+    last, first = used_path(earlier)[0][-1], used_path(later)[0][0]
+    slower, faster = sorted((earlier.speed.speed_kmh, later.speed.speed_kmh))
+    return (last < first and (first - last) / earlier.fps <= params.max_gap_s
+            and faster - slower <= params.max_speed_difference_fraction * faster)
+
+
+def stitch(vehicles: Sequence[VehicleSpeed], params: StitchParams,
+           refit: Callable[[VehiclePath], object]) -> list[VehicleSpeed]:
+    """The vehicles with each pair of measured tracks that are one vehicle joined (`joined`; the closest pairs first,
+    each track joined once at each end, chains joined whole); `refit` measures the joined path's speed."""
+    measured = [v for v in vehicles if isinstance(v.speed, SpeedFit)]
+    pairs = sorted((offset_mm(a, b, params.ends_points), a.track_id, b.track_id)
+                   for a in measured for b in measured if a is not b and may_join(a, b, params))
+    by_id = {v.track_id: v for v in vehicles}
+    next_of: dict[int, int] = {}
+    previous_of: dict[int, int] = {}
+    for distance, a, b in pairs:
+        if distance <= params.max_offset_mm and a not in next_of and b not in previous_of:
+            next_of[a], previous_of[b] = b, a
+    result = []
+    for vehicle in vehicles:
+        if vehicle.track_id in previous_of:
+            continue
+        chain = [vehicle]
+        while chain[-1].track_id in next_of:
+            chain.append(by_id[next_of[chain[-1].track_id]])
+        result.append(joined(chain, refit) if len(chain) > 1 else vehicle)
+    return result
+
+
+def joined(chain: Sequence[VehicleSpeed], refit: Callable[[VehiclePath], object]) -> VehicleSpeed:
+    """One vehicle of the tracks of `chain` (in order): the first's id, the model of the one measured on the most
+    points, their paths' used points together, measured again by `refit`, the frames each followed it in until the next
+    took over, and the ids of all (`joined_track_ids`)."""
+    longest = max(chain, key=lambda v: int(v.used.sum()))
+    parts = [used_path(v) for v in chain]
+    boxes = np.concatenate([v.path.boxes_px[v.used] for v in chain])
+    points_px = np.concatenate([v.path.points_px[v.used] for v in chain])
+    path = VehiclePath(np.concatenate([f for f, _ in parts]), np.concatenate([p for _, p in parts]), points_px, boxes)
+    seen_frames, seen_boxes = [], []
+    for vehicle, following in zip(chain, list(chain[1:]) + [None]):
+        keep = np.ones(len(vehicle.seen_frames), bool) if following is None else (
+            vehicle.seen_frames < following.seen_frames[0])
+        seen_frames.append(vehicle.seen_frames[keep])
+        seen_boxes.append(vehicle.seen_boxes_px[keep])
+    return replace(longest, track_id=chain[0].track_id, first_frame=chain[0].first_frame, last_frame=chain[-1].last_frame,
+                   path=path, speed=refit(path), seen_frames=np.concatenate(seen_frames),
+                   seen_boxes_px=np.concatenate(seen_boxes), joined_track_ids=tuple(v.track_id for v in chain))
