@@ -43,7 +43,9 @@ def test_the_traffic_experiment_votes_on_the_largest_views_and_changes_nothing_e
     default, traffic = LocalizeSettings.compose(), LocalizeSettings.compose(["experiment=traffic"])
     assert default.pipeline.vote_policy == "spread"
     assert traffic.pipeline == PipelineParams.from_config(vote_policy="largest")
-    assert (default.tracker.motion_frames, default.tracker.max_shared_frames) == (0, 0)  # merged blobs: not shared
+    # merged blobs: the other vehicle hidden in the one box, not shared
+    assert (default.tracker.motion_frames, default.tracker.max_hidden_frames, default.tracker.max_shared_frames) == (
+        5, 50, 0)
     assert (traffic.roi, traffic.tracker, traffic.detectors, traffic.fit, traffic.speed) == (
         default.roi, default.tracker, default.detectors, default.fit, default.speed)
 

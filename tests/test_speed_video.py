@@ -15,7 +15,7 @@ from bad_input import run_cli
 from vehloc.benchmark.oracle import TrueModelClassifier
 from vehloc.geometry.brno import project_to_metres
 from vehloc.geometry.camera_calibration import read_calibration
-from vehloc.geometry.pipeline.brno_files import read_ground_truth, read_results
+from vehloc.geometry.pipeline.brno_files import BrnoCar, read_ground_truth, read_results
 from vehloc.geometry.pipeline.localize import Localizer
 from vehloc.geometry.pipeline.settings import LocalizeSettings
 from vehloc.geometry.pipeline.speed_eval import score_speeds
@@ -56,8 +56,14 @@ def test_the_results_file_gives_the_speeds_of_tracks_csv(run: dict[str, Path]) -
     tracks = pd.read_csv(run["run"] / "tracks.csv").set_index("track_id")
     results = read_results(run["run"] / "system_vehloc.json")
     fps = json.loads((run["scene"] / "ground_truth.json").read_text())["fps"]
+    trajectories = pd.read_csv(run["run"] / "trajectories.csv")
     assert len(results.cars) == tracks["speed_kmh"].notna().sum()
     for car in results.cars:
+        # the frames its speed used (the others report its steady motion, where it was followed without a point)
+        used = trajectories[(trajectories["track_id"] == car.car_id) & trajectories["used"]]["frame"].to_numpy()
+        assert set(used) <= set(car.frames.tolist())
+        kept = np.isin(car.frames, used)
+        car = BrnoCar(car.car_id, car.frames[kept], car.points_px[kept])
         metres = project_to_metres(car.points_px, results.calibration)
         basis = np.linalg.svd(metres - metres.mean(axis=0), full_matrices=False)[2][:2]  # the road plane's own axes
         again = fit_speed((metres - metres.mean(axis=0)) @ basis.T * 1000.0, car.frames / fps, 0.0, 6, 0.0)

@@ -99,8 +99,8 @@ def test_two_vehicles_whose_blobs_merge_keep_their_tracks_when_they_part() -> No
     assert [f for f in fast.frames if 12 <= f <= 27] == [] and len(fast.frames) == len(slow.frames) == 40 - 16
 
 
-def test_without_sharing_the_larger_track_takes_the_merged_box_and_goes_on_as_the_other_vehicle() -> None:
-    t = StoppedVehicleTracker(4, TrackerParams.from_config(motion_frames=5, max_shared_frames=0))
+def test_without_sharing_or_hiding_the_larger_track_takes_the_merged_box_and_goes_on_as_the_other_vehicle() -> None:
+    t = StoppedVehicleTracker(4, TrackerParams.from_config(motion_frames=5, max_shared_frames=0, max_hidden_frames=0))
     fast, slow = sorted(t.update(_overtaking(0), 0).seen, key=lambda track: track.box.y0, reverse=True)
     for frame in range(1, 40):
         t.update(_overtaking(frame), frame)
@@ -218,14 +218,17 @@ def test_a_standing_car_whose_blob_breaks_in_two_keeps_one_track_and_is_still() 
     upper part and its lower edge (dev seed 139 of the localization benchmark): the lower part lies inside where the
     track should be and joining it brings the box back to the whole car, so the one track keeps the whole box and
     is still after ten frames (`fragment_min_iou` 0.9); with fragments never joined (the default, 1) the box jumps
-    between the whole car and its upper part, a second track starts, and it is never still."""
+    between the whole car and its upper part, a second track starts (more where each track's box is looked for where
+    its jumping edges' motion takes it: the default `motion_frames` 5), and it is never still."""
     whole, upper, lower = Box(786, 420, 1028, 694), Box(786, 420, 998, 584), Box(848, 586, 1028, 694)
     frames = [[whole] if f % 2 == 0 else [upper, lower] for f in range(20)]
     joined = StoppedVehicleTracker(4, TrackerParams.from_config(stop_frames=10, fragment_min_iou=0.9))
     stops = [bool(joined.update(boxes, f).stopped) for f, boxes in enumerate(frames)]
     assert stops.index(True) == 9 and joined.started == 1 and joined.tracks[0].boxes == [whole] * 20
-    apart = StoppedVehicleTracker(4, TrackerParams.from_config(stop_frames=10))
-    assert not any(apart.update(boxes, f).stopped for f, boxes in enumerate(frames)) and apart.started == 2
+    for motion_frames in (0, 5):
+        apart = StoppedVehicleTracker(4, TrackerParams.from_config(stop_frames=10, motion_frames=motion_frames))
+        assert not any(apart.update(boxes, f).stopped for f, boxes in enumerate(frames))
+        assert apart.started == 2 if motion_frames == 0 else apart.started > 2
 
 
 def test_a_small_car_inside_a_whole_tracked_cars_box_is_not_taken_as_its_fragment() -> None:
