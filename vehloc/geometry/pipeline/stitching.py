@@ -10,6 +10,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from vehloc.geometry.outcome import NotPlaced
 from vehloc.geometry.pipeline.track_speed import StitchParams, VehiclePath, VehicleSpeed
 from vehloc.geometry.speed import SpeedFit
 
@@ -44,12 +45,19 @@ def may_join(earlier: VehicleSpeed, later: VehicleSpeed, params: StitchParams) -
 
 
 def stitch(vehicles: Sequence[VehicleSpeed], params: StitchParams,
-           refit: Callable[[VehiclePath], object]) -> list[VehicleSpeed]:
+           refit: Callable[[VehiclePath], SpeedFit | NotPlaced]) -> list[VehicleSpeed]:
     """The vehicles with each pair of measured tracks that are one vehicle joined (`joined`; the closest pairs first,
     each track joined once at each end, chains joined whole); `refit` measures the joined path's speed."""
-    measured = [v for v in vehicles if isinstance(v.speed, SpeedFit)]
-    pairs = sorted((offset_mm(a, b, params.ends_points), a.track_id, b.track_id)
-                   for a in measured for b in measured if a is not b and may_join(a, b, params))
+    measured = sorted((v for v in vehicles if isinstance(v.speed, SpeedFit)), key=lambda v: used_path(v)[0][0])
+    starts = np.array([used_path(v)[0][0] for v in measured])
+    pairs = []
+    for a in measured:
+        last = used_path(a)[0][-1]
+        within = range(int(np.searchsorted(starts, last, side="right")),
+                       int(np.searchsorted(starts, last + params.max_gap_s * a.fps, side="right")))
+        pairs += [(offset_mm(a, measured[j], params.ends_points), a.track_id, measured[j].track_id)
+                  for j in within if may_join(a, measured[j], params)]
+    pairs.sort()
     by_id = {v.track_id: v for v in vehicles}
     next_of: dict[int, int] = {}
     previous_of: dict[int, int] = {}
@@ -67,7 +75,7 @@ def stitch(vehicles: Sequence[VehicleSpeed], params: StitchParams,
     return result
 
 
-def joined(chain: Sequence[VehicleSpeed], refit: Callable[[VehiclePath], object]) -> VehicleSpeed:
+def joined(chain: Sequence[VehicleSpeed], refit: Callable[[VehiclePath], SpeedFit | NotPlaced]) -> VehicleSpeed:
     """One vehicle of the tracks of `chain` (in order): the first's id, the model of the one measured on the most
     points, their paths' used points together, measured again by `refit`, the frames each followed it in until the next
     took over, and the ids of all (`joined_track_ids`)."""
