@@ -21,11 +21,9 @@ def used_path(vehicle: VehicleSpeed) -> tuple[np.ndarray, np.ndarray]:
 
 
 def offset_mm(earlier: VehicleSpeed, later: VehicleSpeed, ends_points: int) -> float:
-    """How far apart the two paths meet (mm): the larger of the median distances of the later path's first
+    """How far apart two measured paths meet (mm): the larger of the median distances of the later path's first
     `ends_points` points from the earlier one's steady motion and of the earlier path's last points from the later
-    one's; infinite where either has no speed."""
-    if not (isinstance(earlier.speed, SpeedFit) and isinstance(later.speed, SpeedFit)):
-        return float("inf")
+    one's."""
     first_frames, first_points = (a[:ends_points] for a in used_path(later))
     last_frames, last_points = (a[-ends_points:] for a in used_path(earlier))
     ahead = np.linalg.norm(first_points - earlier.speed.positions_mm(first_frames / earlier.fps), axis=1)
@@ -33,37 +31,34 @@ def offset_mm(earlier: VehicleSpeed, later: VehicleSpeed, ends_points: int) -> f
     return float(max(np.median(ahead), np.median(back)))
 
 
-def may_join(earlier: VehicleSpeed, later: VehicleSpeed, params: StitchParams) -> bool:
-    """Whether `later`'s measured path begins after `earlier`'s ends, within `max_gap_s`, at a speed within
-    `max_speed_difference_fraction` of it."""
-    if not (isinstance(earlier.speed, SpeedFit) and isinstance(later.speed, SpeedFit)):
-        return False
-    last, first = used_path(earlier)[0][-1], used_path(later)[0][0]
-    slower, faster = sorted((earlier.speed.speed_kmh, later.speed.speed_kmh))
-    return (last < first and (first - last) / earlier.fps <= params.max_gap_s
-            and faster - slower <= params.max_speed_difference_fraction * faster)
+def speeds_agree(a: SpeedFit, b: SpeedFit, max_difference_fraction: float) -> bool:
+    """Whether two speeds differ by at most `max_difference_fraction` of the faster."""
+    slower, faster = sorted((a.speed_kmh, b.speed_kmh))
+    return faster - slower <= max_difference_fraction * faster
 
 
 def stitch(vehicles: Sequence[VehicleSpeed], params: StitchParams,
            refit: Callable[[VehiclePath], SpeedFit | NotPlaced]) -> list[VehicleSpeed]:
-    """The vehicles with each pair of measured tracks that are one vehicle joined (`joined`; the closest pairs first,
-    each track joined once at each end, chains joined whole); `refit` measures the joined path's speed."""
+    """The vehicles with each pair of measured tracks that are one vehicle joined (`joined`): the later path begins
+    within `max_gap_s` after the earlier ends, their speeds agree (`max_speed_difference_fraction`) and they meet
+    within `max_offset_mm` (`offset_mm`); the closest pairs first, each track joined once at each end, chains joined
+    whole. `refit` measures the joined path's speed."""
     measured = sorted((v for v in vehicles if isinstance(v.speed, SpeedFit)), key=lambda v: used_path(v)[0][0])
     starts = np.array([used_path(v)[0][0] for v in measured])
     pairs = []
     for a in measured:
         last = used_path(a)[0][-1]
-        within = range(int(np.searchsorted(starts, last, side="right")),
-                       int(np.searchsorted(starts, last + params.max_gap_s * a.fps, side="right")))
-        pairs += [(offset_mm(a, measured[j], params.ends_points), a.track_id, measured[j].track_id)
-                  for j in within if may_join(a, measured[j], params)]
+        after = measured[int(np.searchsorted(starts, last, side="right")):
+                         int(np.searchsorted(starts, last + params.max_gap_s * a.fps, side="right"))]
+        pairs += [(offset_mm(a, b, params.ends_points), a.track_id, b.track_id) for b in after
+                  if speeds_agree(a.speed, b.speed, params.max_speed_difference_fraction)]
     pairs.sort()
     by_id = {v.track_id: v for v in vehicles}
     next_of: dict[int, int] = {}
     previous_of: dict[int, int] = {}
-    for distance, a, b in pairs:
-        if distance <= params.max_offset_mm and a not in next_of and b not in previous_of:
-            next_of[a], previous_of[b] = b, a
+    for distance, a_id, b_id in pairs:
+        if distance <= params.max_offset_mm and a_id not in next_of and b_id not in previous_of:
+            next_of[a_id], previous_of[b_id] = b_id, a_id
     result = []
     for vehicle in vehicles:
         if vehicle.track_id in previous_of:

@@ -262,9 +262,8 @@ class StoppedVehicleTracker:
             if (track.last_frame == frame_index or track.track_id in sharing
                     or frame_index - track.last_frame >= self.params.max_lost_frames):
                 continue
-            where = expected[track.track_id]
-            cover = [t for t in taken if t.last_frame == frame_index
-                     and t.box.intersection(where).area_px >= self.params.shared_min_cover * where.area_px]
+            cover = [t for t in taken  # a track that gave its box back this frame no longer covers
+                     if t.last_frame == frame_index and self.covers(t.box, expected[track.track_id])]
             if cover:
                 box = cover[0].unobserve()
                 sharing |= {track.track_id: box, cover[0].track_id: box}
@@ -272,6 +271,10 @@ class StoppedVehicleTracker:
         for track in self.tracks:  # a third track that took a shared box this frame shares it too
             if track.last_frame == frame_index and track.box in shared:
                 sharing[track.track_id] = track.unobserve()
+
+    def covers(self, box: Box, where: Box) -> bool:
+        """Whether `box` covers at least `shared_min_cover` of `where` (where a track should be)."""
+        return box.intersection(where).area_px >= self.params.shared_min_cover * where.area_px
 
     def hidden(self, expected: dict[int, Box], sharing: dict[int, Box], frame_index: int) -> None:
         """A track missed this frame, where a box another track took covers at least `shared_min_cover` of where it
@@ -285,8 +288,7 @@ class StoppedVehicleTracker:
                     or frame_index - track.last_frame > self.params.max_hidden_frames
                     or frame_index - track.last_accounted_frame >= self.params.max_lost_frames):
                 continue
-            where = expected[track.track_id]
-            cover = [box for box in taken if box.intersection(where).area_px >= self.params.shared_min_cover * where.area_px]
+            cover = [box for box in taken if self.covers(box, expected[track.track_id])]
             if cover:
                 track.hidden_frames.append(frame_index)
                 track.hidden_boxes.append(cover[0])
