@@ -89,10 +89,13 @@ def main() -> None:
     parser.add_argument("--model", type=Path, required=True, help="an ONNX classifier written by vehloc-export")
     parser.add_argument("--out", type=Path, default=Path("outputs/highway_localize"))
     parser.add_argument("--max-frames", type=int, default=None)
+    parser.add_argument("--set", nargs="*", default=[], metavar="SETTING=VALUE",
+                        help="vehloc-localize settings over experiment=highway's (tracker.motion_frames=0)")
     args = parser.parse_args()
 
+    settings = LocalizeSettings.compose([EXPERIMENT, *args.set])  # a bad --set refused before the model is read
     calibration = read_calibration(args.calibration)
-    localizer = Localizer(VehicleClassifier.from_onnx(args.model), calibration, LocalizeSettings.compose([EXPERIMENT]))
+    localizer = Localizer(VehicleClassifier.from_onnx(args.model), calibration, settings)
     run = localize_video(localizer, VIDEO, args.out, max_frames=args.max_frames, pictures=False)
     records = pd.read_csv(args.out / "records.csv")
     left_curb_x_mm = float(calibration.road_to_image.inverse(LEFT_CURB_PX)[:, 0].mean())
