@@ -43,11 +43,12 @@ def stitch(vehicles: Sequence[VehicleSpeed], params: StitchParams,
     within `max_gap_s` after the earlier ends, their speeds agree (`max_speed_difference_fraction`) and they meet
     within `max_offset_mm` (`offset_mm`); the closest pairs first, each track joined once at each end, chains joined
     whole. `refit` measures the joined path's speed."""
-    measured = sorted((v for v in vehicles if isinstance(v.speed, SpeedFit)), key=lambda v: used_path(v)[0][0])
-    starts = np.array([used_path(v)[0][0] for v in measured])
+    frames = {v.track_id: used_path(v)[0] for v in vehicles if isinstance(v.speed, SpeedFit)}
+    measured = sorted((v for v in vehicles if v.track_id in frames), key=lambda v: frames[v.track_id][0])
+    starts = np.array([frames[v.track_id][0] for v in measured])
     pairs = []
     for a in measured:
-        last = used_path(a)[0][-1]
+        last = frames[a.track_id][-1]
         after = measured[int(np.searchsorted(starts, last, side="right")):
                          int(np.searchsorted(starts, last + params.max_gap_s * a.fps, side="right"))]
         pairs += [(offset_mm(a, b, params.ends_points), a.track_id, b.track_id) for b in after
