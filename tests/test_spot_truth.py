@@ -160,6 +160,38 @@ def test_crossings_are_matched_one_to_one_in_their_lane() -> None:
     assert matches[0].track_frame == pytest.approx(42.0, abs=1e-6)
 
 
+def test_a_track_measured_by_its_box_bottom_crosses_where_its_path_does() -> None:
+    """A truck of no known model: its path is its front's ground line already (`reference` box_bottom, no length),
+    so it crosses where its points reach the row's road line; tolerance 1e-6 frame."""
+    road_to_image = CAMERA.road_to_image()
+    row_y = row_road_y_mm(road_to_image, 200.0, 1800.0)
+    frames = np.arange(20, 40)
+    tracks = pd.DataFrame([{"track_id": 7, "status": "measured", "length_mm": float("nan"), "speed_kmh": 90.0,
+                            "reference": "box_bottom"}])
+    points = pd.DataFrame([{"track_id": 7, "frame": f, "x_mm": 1800.0, "y_mm": row_y + 1000.0 * (45.0 - f),
+                            "used": True} for f in frames])
+    matches = match_crossings(CrossingCount(200.0, 0, (Crossing(45, "right"),)), tracks, points, road_to_image,
+                              lambda x: "left" if x < 0 else "right", 12.0)
+    assert matches[0].track_id == 7 and matches[0].track_frame == pytest.approx(45.0, abs=1e-6)
+
+
+def test_a_vehicle_changing_lanes_is_matched_in_the_lane_it_crosses_in() -> None:
+    """A track from the right lane (X 1.8 m) into the left (X -1.8 m), most of its points in the right, its front at
+    the row at frame 45 in the left: the hand crossing of the left lane is its, the right lane's is not."""
+    road_to_image = CAMERA.road_to_image()
+    frames = np.arange(0, 50)
+    x_mm = np.where(frames < 38, 1800.0, -1800.0)
+    row_y = row_road_y_mm(road_to_image, 200.0, 1800.0)
+    tracks = pd.DataFrame([{"track_id": 3, "status": "measured", "length_mm": 4800.0, "speed_kmh": 90.0}])
+    points = pd.DataFrame([{"track_id": 3, "frame": f, "x_mm": x, "y_mm": row_y + 2400.0 + 1000.0 * (45.0 - f),
+                            "used": True} for f, x in zip(frames, x_mm)])
+    lane_of = lambda x: "left" if x < 0 else "right"  # noqa: E731
+    for lane, matched in (("left", 3), ("right", None)):
+        match = match_crossings(CrossingCount(200.0, 0, (Crossing(45, lane),)), tracks, points, road_to_image,
+                                lane_of, 12.0)[0]
+        assert match.track_id == matched
+
+
 def test_the_highway_crossings_file_is_whole() -> None:
     """The hand count of the highway clip: its lanes left or right, its frames in the clip after its first frame and
     in order."""

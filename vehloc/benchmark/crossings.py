@@ -2,7 +2,8 @@
 a speed for every vehicle that crossed the view?
 
 A crossing is read by hand as the first frame in which a vehicle covers an image row, and its lane. A measured track
-crosses that row when the front of its footprint, moving as its constant-velocity fit of the road path says, reaches
+crosses that row when the front of its footprint (its path's point itself where that is its box's bottom: its nearest
+end), moving as its constant-velocity fit of the road path says, reaches
 the road line under the row: the frame is extrapolated where the track ends before the row. Crossings and tracks of
 one lane are matched one to one, nearest in time first, within a tolerance.
 """
@@ -83,15 +84,19 @@ def match_crossings(count: CrossingCount, tracks: pd.DataFrame, trajectories: pd
                     road_to_image: ProjectiveTransform, lane_of: Callable[[float], str],
                     tolerance_frames: float) -> list[CrossingMatch]:
     """Each crossing with the measured track of `tracks.csv` (and its `trajectories.csv` points used) matched to it;
-    a track's lane is `lane_of` its median road X."""
+    a track's lane is `lane_of` the road X of its point nearest in time to its crossing (its median road X where it
+    does not cross)."""
     candidates = []
     for track in tracks[tracks.status == SpeedStatus.MEASURED].itertuples():
         path = trajectories[(trajectories.track_id == track.track_id) & trajectories.used]
         if len(path) < 2:
             continue
         x_mm = float(path.x_mm.median())
-        frame = track_crossing_frame(path.frame.to_numpy(), path.y_mm.to_numpy(), float(track.length_mm),
+        length_mm = 0.0 if getattr(track, "reference", "") == "box_bottom" else float(track.length_mm)
+        frame = track_crossing_frame(path.frame.to_numpy(), path.y_mm.to_numpy(), length_mm,
                                      row_road_y_mm(road_to_image, count.row_px, x_mm))
+        if np.isfinite(frame):  # its lane where it crosses: a vehicle changing lanes is counted in the one it is in
+            x_mm = float(path.x_mm.to_numpy()[np.argmin(np.abs(path.frame.to_numpy() - frame))])
         candidates.append((int(track.track_id), lane_of(x_mm), frame, float(track.speed_kmh)))
     pairs = sorted((abs(frame - c.frame), i, j) for i, c in enumerate(count.crossings)
                    for j, (_, lane, frame, _) in enumerate(candidates)

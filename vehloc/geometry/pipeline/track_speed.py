@@ -63,6 +63,9 @@ class SpeedParams:
     min_reference_vehicles: int
     min_excess_sigma: float
     max_heading_gap_deg: float
+    unknown_by_box_bottom: bool
+    unknown_max_held_fraction: float
+    unknown_max_sigma_fraction: float
     stitch: StitchParams
 
     def __post_init__(self) -> None:
@@ -72,6 +75,8 @@ class SpeedParams:
         check_range("min_reference_vehicles", self.min_reference_vehicles, 1)
         check_range("min_excess_sigma", self.min_excess_sigma, 0.0, 1.0, low_open=True)
         check_range("edge_inset_px", self.edge_inset_px, -2.0, 2.0)
+        check_range("unknown_max_held_fraction", self.unknown_max_held_fraction, 0.0, 1.0)
+        check_range("unknown_max_sigma_fraction", self.unknown_max_sigma_fraction, 0.0, low_open=True)
         check_range("max_box_mismatch", self.max_box_mismatch, 0.0, low_open=True)
         check_choice("reference", self.reference, REFERENCES)
         check_range("min_points", self.min_points, 3)
@@ -126,6 +131,7 @@ class ModelCandidate:
 class ModelSource(StrEnum):
     VOTE = "vote"
     BOX_HEIGHT = "vote and box height"
+    UNKNOWN = "none: no likely model's size"
 
 
 @dataclass(frozen=True)
@@ -147,6 +153,9 @@ class VehicleSpeed:
     lane: int | None = None
     candidates: tuple[ModelCandidate, ...] = ()
     model_source: ModelSource = ModelSource.VOTE
+    reference: str = "shape_top"
+    """Where its path's points are on it (`REFERENCES`): the road point under its box's bottom for a vehicle none of
+    the likely models fits (`ModelSource.UNKNOWN`)."""
     joined_track_ids: tuple[int, ...] = ()
     """The tracks it was joined from, in order, where two or more were one vehicle (`stitching`); empty otherwise."""
     seen_frames: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
@@ -179,7 +188,7 @@ class VehicleSpeed:
             "track_id": self.track_id, "first_frame": self.first_frame, "last_frame": self.last_frame,
             "first_time_s": self.first_frame / self.fps, "last_time_s": self.last_frame / self.fps, "lane": self.lane,
             "model_id": self.model_id, "make": self.make, "model": self.model, "probability": self.probability,
-            "model_source": self.model_source.value,
+            "model_source": self.model_source.value, "reference": self.reference,
             "joined_track_ids": " ".join(str(i) for i in self.joined_track_ids),
             "voted_model_id": self.candidates[0].model_id if self.candidates else self.model_id,
             **dict(zip(("length_mm", "width_mm", "height_mm"), self.dims_mm or (None, None, None))),
@@ -278,7 +287,22 @@ class TrackSpeeds:
         candidates = tuple(self.candidate(c.model_id, c.probability, frames, bottoms, boxes,
                                           None if heading is None else heading.heading_deg, vehicle.speed)
                            for c in likeliest)
-        return replace(vehicle, candidates=candidates).with_candidate(candidates[0], ModelSource.VOTE)
+        vehicle = replace(vehicle, reference=self.params.reference, candidates=candidates)
+        unknown = all(isinstance(c.speed, NotPlaced) and c.speed.code == ReasonCode.BOX_NOT_MODEL_SIZE
+                      for c in candidates)
+        if unknown and self.params.unknown_by_box_bottom:
+            return self.unknown(vehicle, frames, bottoms, boxes)
+        return vehicle.with_candidate(candidates[0], ModelSource.VOTE)
+
+    def unknown(self, vehicle: VehicleSpeed, frames: np.ndarray, bottoms: np.ndarray, boxes: dict) -> VehicleSpeed:
+        """A vehicle none of whose likely models is the size of its boxes (a truck, a bus: a model its classifier
+        does not know), measured by the road point under its box's bottom in every frame (its nearest end's ground
+        line, wherever along it the vehicle's centre is) and given no model."""
+        path = VehiclePath(frames, bottoms, self.calibration.road_to_image(bottoms),
+                           np.array([[b.x0, b.y0, b.x1, b.y1] for b in (boxes[f] for f in frames)], int).reshape(-1, 4))
+        speed = fit_speed(bottoms, frames / self.fps, self.scale_sigma_fraction(bottoms), self.params.min_points,
+                          self.params.min_distance_mm)
+        return replace(vehicle, path=path, speed=speed, reference="box_bottom", model_source=ModelSource.UNKNOWN)
 
     def candidate(self, model_id: int, probability: float, frames: np.ndarray, bottoms: np.ndarray, boxes: dict,
                   heading_deg: float | None, failure: NotPlaced) -> ModelCandidate:
@@ -349,7 +373,8 @@ def assign_lanes(vehicles: Sequence[VehicleSpeed], params: SpeedParams) -> list[
     """Each vehicle's lane, numbered from the road's left (smallest X): between the site's lane lines where
     `lane_lines_x_mm` gives them (None outside them), else the clusters of the measured vehicles' positions across the
     road (a gap of `lane_gap_mm` between neighbours starts a lane); a vehicle without a speed (a fragment, a far car
-    seen a few frames, whose positions would fill the gaps) takes the lane of the nearest measured one within
+    seen a few frames, whose positions would fill the gaps) or measured by its box's bottom (`ModelSource.UNKNOWN`:
+    not its centre) takes the lane of the nearest measured one within
     `lane_gap_mm`, else none."""
     lateral = np.array([v.lateral_mm for v in vehicles], dtype=float)
     lanes: list[int | None] = [None] * len(vehicles)
@@ -359,8 +384,8 @@ def assign_lanes(vehicles: Sequence[VehicleSpeed], params: SpeedParams) -> list[
             index = int(np.searchsorted(lines, x))
             lanes[i] = index - 1 if np.isfinite(x) and 0 < index < len(lines) else None
     else:
-        measured = [i for i in np.argsort(lateral)
-                    if np.isfinite(lateral[i]) and vehicles[i].status == SpeedStatus.MEASURED]
+        measured = [i for i in np.argsort(lateral) if np.isfinite(lateral[i])
+                    and vehicles[i].status == SpeedStatus.MEASURED and vehicles[i].model_source != ModelSource.UNKNOWN]
         lane = 0
         for previous, current in zip([None] + measured[:-1], measured):
             if previous is not None and lateral[current] - lateral[previous] > params.lane_gap_mm:

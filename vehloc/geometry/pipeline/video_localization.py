@@ -20,6 +20,7 @@ from vehloc.geometry.pipeline.localize import Localizer, Status, VehicleRecord
 from vehloc.geometry.pipeline.speed_files import write_speed_files
 from vehloc.geometry.pipeline.model_choice import choose_models
 from vehloc.geometry.pipeline.stitching import stitch
+from vehloc.geometry.pipeline.unknown_vehicles import apart_from_known
 from vehloc.geometry.pipeline.track_speed import TrackSpeeds, VehicleSpeed, along_traffic, assign_lanes
 from vehloc.geometry.truth import SceneTruth
 from vehloc.geometry.pipeline.video import VideoFrames
@@ -106,6 +107,7 @@ def localize_video(localizer: Localizer, video: str | Path, out_dir: Path, truth
         vehicles = choose_models(sorted(vehicles, key=lambda v: v.track_id), localizer.speed_params)
         vehicles = stitch(vehicles, localizer.speed_params.stitch, speeds.refit)
         vehicles = along_traffic(vehicles, localizer.speed_params)
+        vehicles = apart_from_known(vehicles, localizer.speed_params, localizer.calibration.road_to_image)
         vehicles = assign_lanes(vehicles, localizer.speed_params)
         summary = write_speed_files(vehicles, localizer.calibration, out_dir, str(video), info.fps, pictures)
     table = None
