@@ -65,6 +65,7 @@ class SpeedParams:
     max_heading_gap_deg: float
     unknown_by_box_bottom: bool
     unknown_max_held_fraction: float
+    unknown_held_within_mm: float
     unknown_max_sigma_fraction: float
     stitch: StitchParams
 
@@ -76,6 +77,7 @@ class SpeedParams:
         check_range("min_excess_sigma", self.min_excess_sigma, 0.0, 1.0, low_open=True)
         check_range("edge_inset_px", self.edge_inset_px, -2.0, 2.0)
         check_range("unknown_max_held_fraction", self.unknown_max_held_fraction, 0.0, 1.0)
+        check_range("unknown_held_within_mm", self.unknown_held_within_mm, 0.0, low_open=True)
         check_range("unknown_max_sigma_fraction", self.unknown_max_sigma_fraction, 0.0, low_open=True)
         check_range("max_box_mismatch", self.max_box_mismatch, 0.0, low_open=True)
         check_choice("reference", self.reference, REFERENCES)

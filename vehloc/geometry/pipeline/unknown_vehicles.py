@@ -17,19 +17,25 @@ from vehloc.geometry.projective import ProjectiveTransform
 from vehloc.geometry.speed import SpeedFit
 
 
-def held_fraction(vehicle: VehicleSpeed, others: Sequence[VehicleSpeed], road_to_image: ProjectiveTransform) -> float:
+def held_fraction(vehicle: VehicleSpeed, others: Sequence[VehicleSpeed], road_to_image: ProjectiveTransform,
+                  margin_s: float, within_mm: float) -> float:
     """The fraction of `vehicle`'s used frames whose box holds the pixel of some other vehicle's steady motion at that
-    frame (within that vehicle's own first and last frame)."""
+    frame (within that vehicle's own first and last frame, or `margin_s` before or after: a track of the same vehicle
+    that began later or ended sooner) where that point is within `within_mm` of the vehicle's own on the road (beside
+    it or just behind: not the far road a tall box covers in the image)."""
     used = vehicle.used
-    frames, boxes = vehicle.path.frames[used], vehicle.path.boxes_px[used]
+    frames, boxes, points = vehicle.path.frames[used], vehicle.path.boxes_px[used], vehicle.path.points_mm[used]
     held = np.zeros(len(frames), bool)
     for other in others:
-        during = (frames >= other.first_frame) & (frames <= other.last_frame)
+        margin = margin_s * other.fps
+        during = (frames >= other.first_frame - margin) & (frames <= other.last_frame + margin)
         if not during.any():
             continue
-        pixels = road_to_image(other.speed.positions_mm(frames[during] / other.fps))
+        positions = other.speed.positions_mm(frames[during] / other.fps)
+        pixels = road_to_image(positions)
         inside = ((pixels[:, 0] >= boxes[during, 0]) & (pixels[:, 0] < boxes[during, 2])
-                  & (pixels[:, 1] >= boxes[during, 1]) & (pixels[:, 1] < boxes[during, 3]))
+                  & (pixels[:, 1] >= boxes[during, 1]) & (pixels[:, 1] < boxes[during, 3])
+                  & (np.linalg.norm(positions - points[during], axis=1) <= within_mm))
         held[np.flatnonzero(during)[inside]] = True
     return float(held.mean()) if len(held) else 0.0
 
@@ -38,7 +44,8 @@ def apart_from_known(vehicles: Sequence[VehicleSpeed], params: SpeedParams,
                      road_to_image: ProjectiveTransform) -> list[VehicleSpeed]:
     """The vehicles, each measured one of no likely model's size not measured where its speed's 1-sigma is more than
     `unknown_max_sigma_fraction` of it or its boxes held another measured vehicle in more than
-    `unknown_max_held_fraction` of its frames."""
+    `unknown_max_held_fraction` of its frames (that vehicle's steady motion taken up to `stitch.max_gap_s` beyond its
+    track, the gap over which two tracks are one vehicle's, and within `unknown_held_within_mm` of its own point)."""
     known = [v for v in vehicles if isinstance(v.speed, SpeedFit) and v.model_source != ModelSource.UNKNOWN]
     result = []
     for vehicle in vehicles:
@@ -50,7 +57,8 @@ def apart_from_known(vehicles: Sequence[VehicleSpeed], params: SpeedParams,
                     f"uncertain, more than {params.unknown_max_sigma_fraction:.0%} "
                     "(speed.unknown_max_sigma_fraction): a fragment"))))
                 continue
-            fraction = held_fraction(vehicle, [v for v in known if v.track_id != vehicle.track_id], road_to_image)
+            fraction = held_fraction(vehicle, [v for v in known if v.track_id != vehicle.track_id], road_to_image,
+                                     params.stitch.max_gap_s, params.unknown_held_within_mm)
             if fraction > params.unknown_max_held_fraction:
                 vehicle = replace(vehicle, speed=NotPlaced(ReasonCode.BOX_NOT_MODEL_SIZE, (
                     f"its boxes, of no likely model's size, held another measured vehicle in {fraction:.0%} of its "
