@@ -86,13 +86,13 @@ def test_a_box_that_held_a_measured_vehicle_is_their_merged_blob() -> None:
 
 def test_only_a_vehicle_beside_it_on_the_road_makes_a_merged_blob() -> None:
     """A car 30 m behind the truck in the next lane is inside the truck's tall box in the image, not beside it on the
-    road: the truck is measured. A car beside it whose track begins halfway through the truck's (its steady motion
-    taken back within `stitch.max_gap_s` over the first half too): their merged blob."""
+    road: the truck is measured. A car beside it whose track begins 10 frames into the truck's and outlasts it: their
+    merged blob (50 of 60 frames)."""
     truck = SPEEDS.measure(_truck_track(1, 1750.0, 72.0))
     far_behind = _known(2, 3250.0, 72.0, 90000.0)
     checked = apart_from_known([truck, far_behind], PARAMS, CAMERA.road_to_image())[0]
     assert checked.status == SpeedStatus.MEASURED
-    later = replace(_known(3, 3250.0, 72.0, 62000.0), first_frame=30, last_frame=90)
+    later = replace(_known(3, 3250.0, 72.0, 62000.0), first_frame=10, last_frame=90)
     merged = apart_from_known([truck, later], PARAMS, CAMERA.road_to_image())[0]
     assert merged.speed.code is ReasonCode.BOX_NOT_MODEL_SIZE
 

@@ -18,17 +18,16 @@ from vehloc.geometry.speed import SpeedFit
 
 
 def held_fraction(vehicle: VehicleSpeed, others: Sequence[VehicleSpeed], road_to_image: ProjectiveTransform,
-                  margin_s: float, within_mm: float) -> float:
+                  within_mm: float) -> float:
     """The fraction of `vehicle`'s used frames whose box holds the pixel of some other vehicle's steady motion at that
-    frame (within that vehicle's own first and last frame, or `margin_s` before or after: a track of the same vehicle
-    that began later or ended sooner) where that point is within `within_mm` of the vehicle's own on the road (beside
-    it or just behind: not the far road a tall box covers in the image)."""
+    frame (within that vehicle's own first and last frame: not where one vehicle's two tracks follow each other) where
+    that point is within `within_mm` of the vehicle's own on the road (beside it or just behind: not the far road a
+    tall box covers in the image)."""
     used = vehicle.used
     frames, boxes, points = vehicle.path.frames[used], vehicle.path.boxes_px[used], vehicle.path.points_mm[used]
     held = np.zeros(len(frames), bool)
     for other in others:
-        margin = margin_s * other.fps
-        during = (frames >= other.first_frame - margin) & (frames <= other.last_frame + margin)
+        during = (frames >= other.first_frame) & (frames <= other.last_frame)
         if not during.any():
             continue
         positions = other.speed.positions_mm(frames[during] / other.fps)
@@ -44,8 +43,7 @@ def apart_from_known(vehicles: Sequence[VehicleSpeed], params: SpeedParams,
                      road_to_image: ProjectiveTransform) -> list[VehicleSpeed]:
     """The vehicles, each measured one of no likely model's size not measured where its speed's 1-sigma is more than
     `unknown_max_sigma_fraction` of it or its boxes held another measured vehicle in more than
-    `unknown_max_held_fraction` of its frames (that vehicle's steady motion taken up to `stitch.max_gap_s` beyond its
-    track, the gap over which two tracks are one vehicle's, and within `unknown_held_within_mm` of its own point)."""
+    `unknown_max_held_fraction` of its frames (that vehicle within `unknown_held_within_mm` of its own point)."""
     known = [v for v in vehicles if isinstance(v.speed, SpeedFit) and v.model_source != ModelSource.UNKNOWN]
     result = []
     for vehicle in vehicles:
@@ -58,7 +56,7 @@ def apart_from_known(vehicles: Sequence[VehicleSpeed], params: SpeedParams,
                     "(speed.unknown_max_sigma_fraction): a fragment"))))
                 continue
             fraction = held_fraction(vehicle, [v for v in known if v.track_id != vehicle.track_id], road_to_image,
-                                     params.stitch.max_gap_s, params.unknown_held_within_mm)
+                                     params.unknown_held_within_mm)
             if fraction > params.unknown_max_held_fraction:
                 vehicle = replace(vehicle, speed=NotPlaced(ReasonCode.BOX_NOT_MODEL_SIZE, (
                     f"its boxes, of no likely model's size, held another measured vehicle in {fraction:.0%} of its "
