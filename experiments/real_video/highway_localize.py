@@ -26,7 +26,7 @@ from vehloc.geometry.pipeline.settings import LocalizeSettings
 from vehloc.geometry.camera_calibration import read_calibration
 from vehloc.geometry.pipeline.video import iter_frames
 from vehloc.geometry.pipeline.speed_files import write_overlays
-from vehloc.geometry.pipeline.track_speed import SpeedStatus
+from vehloc.geometry.pipeline.track_speed import ModelSource, SpeedStatus
 from vehloc.geometry.pipeline.video_localization import localize_video
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.tables import markdown_table
@@ -106,6 +106,7 @@ def main() -> None:
     measured = [v for v in run.vehicles if v.status == SpeedStatus.MEASURED]
     speeds = np.array([v.speed.speed_kmh for v in measured])
     sigmas = np.array([v.speed.sigma_kmh for v in measured])
+    unknown = sum(v.model_source == ModelSource.UNKNOWN for v in measured)
     reasons = records[records.status != Status.LOCALIZED].groupby("reason_code")["reason"].agg(["size", "first"])
     lines = [
         "# Real video: every car localized frame by frame",
@@ -123,6 +124,7 @@ def main() -> None:
         f"![overlay](overlay.png) frames {', '.join(map(str, shown))}: paper's method green, model fit blue.",
         "",
         f"Speeds (`tracks.csv`): {len(run.vehicles)} vehicles tracked, {len(measured)} with a speed"
+        + (f" ({unknown} by the bottom of its box: no likely model's size)" if unknown else "")
         + (f": median {np.median(speeds):.1f} km/h (5th-95th percentile {np.percentile(speeds, 5):.1f}-"
            f"{np.percentile(speeds, 95):.1f}), median 1-sigma {np.median(sigmas):.1f} km/h" if len(measured) else "")
         + "; the others by reason code: "

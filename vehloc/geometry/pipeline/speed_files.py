@@ -12,7 +12,7 @@ from vehloc.atomic import write_bytes, write_image, write_text
 from vehloc.geometry.brno import BrnoCalibration, brno_calibration
 from vehloc.geometry.camera_calibration import CameraCalibration
 from vehloc.geometry.pipeline.brno_files import RESULTS_NAME, results_json
-from vehloc.geometry.pipeline.track_speed import SpeedStatus, VehicleSpeed
+from vehloc.geometry.pipeline.track_speed import ModelSource, SpeedStatus, VehicleSpeed
 from vehloc.geometry.pipeline.video import iter_frames
 
 OVERLAY_FRAMES = 4
@@ -138,10 +138,13 @@ def write_speed_files(vehicles: list[VehicleSpeed], calibration: CameraCalibrati
     write_bytes(out_dir / "speeds.png", speed_plot(vehicles, Path(video).name))
     if overlays:
         write_overlays(video, vehicles, out_dir)
-    measured = sum(v.status == SpeedStatus.MEASURED for v in vehicles)
+    measured = [v for v in vehicles if v.status == SpeedStatus.MEASURED]
+    unknown = sum(v.model_source == ModelSource.UNKNOWN for v in measured)
+    counts = f"{len(vehicles)} vehicle(s), {len(measured)} with a speed" + (
+        f" ({unknown} by the bottom of its box: no likely model's size)" if unknown else "")
     block = benchmark_calibration(calibration, vehicles)
     if isinstance(block, str):
-        return f"{len(vehicles)} vehicle(s), {measured} with a speed: {out_dir / 'tracks.csv'} (no {RESULTS_NAME}: {block})"
+        return f"{counts}: {out_dir / 'tracks.csv'} (no {RESULTS_NAME}: {block})"
     write_text(out_dir / RESULTS_NAME, results_json(vehicles, block, calibration.camera.road_to_image(), str(video),
                                                          calibration.image_size_px, fps))
-    return f"{len(vehicles)} vehicle(s), {measured} with a speed: {out_dir / 'tracks.csv'}, {out_dir / RESULTS_NAME}"
+    return f"{counts}: {out_dir / 'tracks.csv'}, {out_dir / RESULTS_NAME}"
