@@ -300,11 +300,9 @@ class TrackSpeeds:
         """A vehicle none of whose likely models is the size of its boxes (a truck, a bus: a model its classifier
         does not know), measured by the road point under its box's bottom in every frame (its nearest end's ground
         line, wherever along it the vehicle's centre is) and given no model."""
-        path = VehiclePath(frames, bottoms, self.calibration.road_to_image(bottoms),
-                           np.array([[b.x0, b.y0, b.x1, b.y1] for b in (boxes[f] for f in frames)], int).reshape(-1, 4))
-        speed = fit_speed(bottoms, frames / self.fps, self.scale_sigma_fraction(bottoms), self.params.min_points,
-                          self.params.min_distance_mm)
-        return replace(vehicle, path=path, speed=speed, reference="box_bottom", model_source=ModelSource.UNKNOWN)
+        path = self.path(frames, bottoms, boxes)
+        return replace(vehicle, path=path, speed=self.refit(path), reference="box_bottom",
+                       model_source=ModelSource.UNKNOWN)
 
     def candidate(self, model_id: int, probability: float, frames: np.ndarray, bottoms: np.ndarray, boxes: dict,
                   heading_deg: float | None, failure: NotPlaced) -> ModelCandidate:
@@ -325,11 +323,8 @@ class TrackSpeeds:
                     "or vehicles merged into one blob")))
             frames, points = frames[kept], centres[kept].reshape(-1, 2)
             excess = float(np.median(excesses[kept])) if kept.any() else float("nan")
-        path = VehiclePath(frames, points, self.calibration.road_to_image(points) if len(points) else np.zeros((0, 2)),
-                           np.array([[b.x0, b.y0, b.x1, b.y1] for b in (boxes[f] for f in frames)], int).reshape(-1, 4))
-        speed = fit_speed(points, frames / self.fps, self.scale_sigma_fraction(points), self.params.min_points,
-                          self.params.min_distance_mm)
-        return replace(candidate, path=path, speed=speed, box_height_excess=excess)
+        path = self.path(frames, points, boxes)
+        return replace(candidate, path=path, speed=self.refit(path), box_height_excess=excess)
 
     def centres(self, model_id: int, frames: np.ndarray, bottoms: np.ndarray, boxes: dict,
                 heading_deg: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -352,8 +347,14 @@ class TrackSpeeds:
                                        self.box_block_px) <= self.params.max_box_mismatch
         return kept, centres, excesses
 
+    def path(self, frames: np.ndarray, points_mm: np.ndarray, boxes: dict) -> VehiclePath:
+        """The path of road points `points_mm` at `frames`, with their pixels and the vehicle's box at each."""
+        pixels = self.calibration.road_to_image(points_mm) if len(points_mm) else np.zeros((0, 2))
+        return VehiclePath(frames, points_mm, pixels,
+                           np.array([[b.x0, b.y0, b.x1, b.y1] for b in (boxes[f] for f in frames)], int).reshape(-1, 4))
+
     def refit(self, path: VehiclePath) -> SpeedFit | NotPlaced:
-        """The speed through a path (one joined from two tracks' used points)."""
+        """The speed through a path (a candidate's, or one joined from two tracks' used points)."""
         return fit_speed(path.points_mm, path.frames / self.fps, self.scale_sigma_fraction(path.points_mm),
                          self.params.min_points, self.params.min_distance_mm)
 

@@ -39,28 +39,34 @@ def held_fraction(vehicle: VehicleSpeed, others: Sequence[VehicleSpeed], road_to
     return float(held.mean()) if len(held) else 0.0
 
 
+def refusal(vehicle: VehicleSpeed, known: Sequence[VehicleSpeed], params: SpeedParams,
+            road_to_image: ProjectiveTransform) -> NotPlaced | None:
+    """Why a vehicle measured by its box's bottom is not measured after all (None where it is): its speed's 1-sigma
+    more than `unknown_max_sigma_fraction` of it (a fragment), or its boxes holding one of the `known` vehicles in more
+    than `unknown_max_held_fraction` of its frames (that vehicle within `unknown_held_within_mm` of its own point)."""
+    sigma_fraction = vehicle.speed.sigma_kmh / vehicle.speed.speed_kmh
+    if sigma_fraction > params.unknown_max_sigma_fraction:
+        return NotPlaced(ReasonCode.BOX_NOT_MODEL_SIZE, (
+            f"its speed, measured by the bottom of boxes of no likely model's size, is {sigma_fraction:.0%} "
+            f"uncertain, more than {params.unknown_max_sigma_fraction:.0%} (speed.unknown_max_sigma_fraction): "
+            "a fragment"))
+    fraction = held_fraction(vehicle, [v for v in known if v.track_id != vehicle.track_id], road_to_image,
+                             params.unknown_held_within_mm)
+    if fraction > params.unknown_max_held_fraction:
+        return NotPlaced(ReasonCode.BOX_NOT_MODEL_SIZE, (
+            f"its boxes, of no likely model's size, held another measured vehicle in {fraction:.0%} of its frames, "
+            f"more than {params.unknown_max_held_fraction:.0%} (speed.unknown_max_held_fraction): their merged blob"))
+    return None
+
+
 def apart_from_known(vehicles: Sequence[VehicleSpeed], params: SpeedParams,
                      road_to_image: ProjectiveTransform) -> list[VehicleSpeed]:
-    """The vehicles, each measured one of no likely model's size not measured where its speed's 1-sigma is more than
-    `unknown_max_sigma_fraction` of it or its boxes held another measured vehicle in more than
-    `unknown_max_held_fraction` of its frames (that vehicle within `unknown_held_within_mm` of its own point)."""
+    """The vehicles, each measured one of no likely model's size not measured where it has a `refusal`."""
     known = [v for v in vehicles if isinstance(v.speed, SpeedFit) and v.model_source != ModelSource.UNKNOWN]
     result = []
     for vehicle in vehicles:
         if vehicle.model_source == ModelSource.UNKNOWN and isinstance(vehicle.speed, SpeedFit):
-            sigma_fraction = vehicle.speed.sigma_kmh / vehicle.speed.speed_kmh
-            if sigma_fraction > params.unknown_max_sigma_fraction:
-                result.append(replace(vehicle, speed=NotPlaced(ReasonCode.BOX_NOT_MODEL_SIZE, (
-                    f"its speed, measured by the bottom of boxes of no likely model's size, is {sigma_fraction:.0%} "
-                    f"uncertain, more than {params.unknown_max_sigma_fraction:.0%} "
-                    "(speed.unknown_max_sigma_fraction): a fragment"))))
-                continue
-            fraction = held_fraction(vehicle, [v for v in known if v.track_id != vehicle.track_id], road_to_image,
-                                     params.unknown_held_within_mm)
-            if fraction > params.unknown_max_held_fraction:
-                vehicle = replace(vehicle, speed=NotPlaced(ReasonCode.BOX_NOT_MODEL_SIZE, (
-                    f"its boxes, of no likely model's size, held another measured vehicle in {fraction:.0%} of its "
-                    f"frames, more than {params.unknown_max_held_fraction:.0%} (speed.unknown_max_held_fraction): "
-                    "their merged blob")))
+            failure = refusal(vehicle, known, params, road_to_image)
+            vehicle = vehicle if failure is None else replace(vehicle, speed=failure)
         result.append(vehicle)
     return result
