@@ -15,10 +15,12 @@ from vehloc.data.shapes import VehicleShape
 from vehloc.geometry.auto_calibration import (
     box_sides_px,
     camera_at_height,
+    camera_from_horizon,
     camera_from_vanishing_points,
     combine_heights,
     focal_from_vanishing_points,
     height_from_sides,
+    horizon_through,
 )
 from vehloc.geometry.brno import vanishing_point_px
 from vehloc.geometry.camera import PinholeCamera
@@ -89,6 +91,27 @@ def test_the_camera_follows_from_its_two_vanishing_points(name: str) -> None:
     assert np.isclose(camera.R[2, 2], truth.R[2, 2], atol=1e-9) and np.isclose(camera.R[0, 2], truth.R[0, 2], atol=1e-9)
 
 
+@pytest.mark.parametrize("name", CAMERAS)
+def test_a_known_focal_length_needs_only_the_horizon_s_direction(name: str) -> None:
+    """Any point of the horizon other than the first vanishing point (here one 40 image widths further out than the
+    second, where edges hardly converge), with the lens's focal length, gives the true camera."""
+    truth = CAMERAS[name]
+    vp1, vp2 = (vanishing_point_px(truth, d) for d in ([0.0, 1.0, 0.0], [1.0, 0.0, 0.0]))
+    far = vp1 + (vp2 - vp1) * (1.0 + 40.0 * truth.width_px / np.linalg.norm(vp2 - vp1))
+    horizon = horizon_through(_homogeneous(vp1), _homogeneous(far))
+    camera = camera_from_horizon(_homogeneous(vp1), horizon, truth.K[:2, 2], truth.focal_px, float(truth.centre_mm[2]),
+                                 (truth.width_px, truth.height_px))
+    road = np.array([[x, y] for x in (-3500.0, 0.0, 3500.0) for y in (20000.0, 30000.0, 40000.0)])
+    back = camera.image_to_road(truth.road_to_image()(road))
+    first, second = np.triu_indices(len(road), k=1)
+    true_mm = np.linalg.norm(road[first] - road[second], axis=1)
+    assert np.allclose(np.linalg.norm(back[first] - back[second], axis=1), true_mm, rtol=1e-6)
+    assert np.isclose(camera.R[2, 2], truth.R[2, 2], atol=1e-9) and np.isclose(camera.R[0, 2], truth.R[0, 2], atol=1e-9)
+    # the second vanishing point is the camera's image of the across direction: the true one
+    across = camera.K @ camera.R[:, 0]
+    assert np.allclose(across[:2] / across[2], vp2, atol=1e-6 * np.linalg.norm(vp2))
+
+
 def test_no_focal_length_from_a_point_at_infinity_or_from_directions_not_perpendicular() -> None:
     pp = np.array([640.0, 360.0])
     at_infinity = focal_from_vanishing_points(np.array([300.0, 10.0, 1.0]), np.array([1.0, 0.0, 0.0]), pp)
@@ -127,6 +150,53 @@ def test_heights_combine_to_their_median_with_its_sigma() -> None:
     assert np.isclose(combined.sigma_spread_mm, 1.4826 * mad * 1.2533 / np.sqrt(6))
     assert np.isclose(combined.sigma_classifier_mm, 9025.0 * 0.05 / np.sqrt(6))
     assert np.isclose(combined.sigma_mm, np.hypot(combined.sigma_spread_mm, combined.sigma_classifier_mm))
+
+
+class _Vote:
+    """A track's vote as `recognised_models` reads it: fixed class probabilities."""
+
+    def __init__(self, probabilities: np.ndarray) -> None:
+        self.empty, self.probabilities = False, probabilities
+
+    def vote(self, classifier: object) -> np.ndarray:
+        return self.probabilities
+
+
+def test_an_unsure_vote_sizes_its_vehicle_by_the_expected_dimensions() -> None:
+    """A vote that cannot tell a Fiat 500 from the sedans it also likes: "voted" takes the Fiat's size (it won by a
+    hair), "expected" the top-5 probability-weighted dimensions; a sure vote gives the same either way."""
+    from types import SimpleNamespace
+
+    from vehloc.benchmark.oracle import TrueModelClassifier, catalog_metadata
+    from vehloc.geometry.pipeline.auto_calibrate import recognised_models
+
+    metadata = catalog_metadata()
+    classifier = TrueModelClassifier(11, metadata)
+    ids = [c.model_id for c in metadata.classes]
+    unsure = np.full(len(ids), 0.02)
+    unsure[[ids.index(11), ids.index(9), ids.index(7), ids.index(5), ids.index(3)]] = [0.2, 0.19, 0.18, 0.17, 0.16]
+    unsure /= unsure.sum()
+    track = SimpleNamespace(votes=_Vote(unsure))
+    body_mm = lambda shape: np.ptp(shape.points_mm, axis=0) - [0.0, 300.0, 0.0]  # noqa: E731  (the mirrors: 150 mm a side)
+    fiat = metadata.dims_mm[ids.index(11)]
+    voted = recognised_models(classifier, "voted")(track)
+    assert voted.label == "Fiat 500" and np.allclose(body_mm(voted.shape), fiat)
+    expected = recognised_models(classifier, "expected")(track)
+    top5 = [11, 9, 7, 5, 3]
+    weights = np.array([0.2, 0.19, 0.18, 0.17, 0.16]) / 0.9
+    wanted = weights @ metadata.dims_mm[[ids.index(i) for i in top5]]
+    assert expected.label == "Fiat 500"
+    # every part stretched by the same factors: the body to the expected dimensions, the mirrors with it (within 2 % of the width)
+    stretched = np.ptp(expected.shape.points_mm, axis=0)
+    assert np.allclose(stretched[[0, 2]], wanted[[0, 2]], rtol=1e-9)
+    assert abs(stretched[1] / (wanted[1] + 300.0) - 1.0) < 0.02
+    # the size doubt is the vote's spread about the size given: smaller about the expected size than about the Fiat's
+    assert 0.0 < expected.size_doubt < voted.size_doubt
+    sure = SimpleNamespace(votes=_Vote(np.eye(len(ids))[ids.index(9)]))
+    one, other = (recognised_models(classifier, size)(sure) for size in ("voted", "expected"))
+    assert np.allclose(one.shape.points_mm, other.shape.points_mm) and one.size_doubt == other.size_doubt == 0.0
+    with pytest.raises(ValueError, match="size"):
+        recognised_models(classifier, "largest")
 
 
 def test_points_tracked_on_a_moving_pattern_point_along_its_motion() -> None:
@@ -170,6 +240,7 @@ def test_calibrate_auto_refuses_a_video_without_traffic(tmp_path: Path) -> None:
     (["mode=auto", "video=v.avi"], "model=PATH is required with mode=auto"),
     (["mode=auto", "video=v.avi", "model=m.onnx", "auto.min_vehicles=0"], "auto.min_vehicles: must be in [1, 100000]"),
     (["mode=auto", "video=v.avi", "model=m.onnx", "auto.scale_source=guess"], "auto.scale_source: expected one of"),
+    (["mode=auto", "video=v.avi", "model=m.onnx", "auto.recognised_size=top"], "auto.recognised_size: expected one of"),
     (["mode=auto", "video=v.avi", "model=m.onnx", 'localize=["roi.nope=1"]'], "Could not override 'roi.nope'"),
 ])
 def test_calibrate_auto_checks_its_settings_first(overrides: list[str], fragment: str, tmp_path: Path) -> None:

@@ -105,7 +105,7 @@ def test_the_camera_calibrated_by_its_traffic_alone(run: dict[str, Path]) -> Non
     params = AutoCalibrationParams.from_config(min_vehicles=5)
     settings = LocalizeSettings.compose(["experiment=traffic"])
     evidence = collect_traffic(run["scene"] / "video.avi", params, settings, progress=False)
-    result = auto_calibrate(evidence, recognised_models(TrueModelClassifier(MODEL_ID)), params,
+    result = auto_calibrate(evidence, recognised_models(TrueModelClassifier(MODEL_ID), "expected"), params,
                             settings.pipeline.border_margin_px)
     truth = read_scene_truth(run["scene"] / "ground_truth.json").camera
     assert result, str(result)
@@ -117,7 +117,13 @@ def test_the_camera_calibrated_by_its_traffic_alone(run: dict[str, Path]) -> Non
     road = np.array([[0.0, y] for y in (14000.0, 26000.0, 38000.0)])
     back = result.camera.image_to_road(truth.road_to_image()(road))
     assert np.allclose(np.linalg.norm(np.diff(back, axis=0), axis=1), 12000.0, rtol=0.03)
+    # the lens's focal length given: the same road, with the edges telling only the horizon's direction
+    given = auto_calibrate(evidence, recognised_models(TrueModelClassifier(MODEL_ID), "expected"),
+                           AutoCalibrationParams.from_config(min_vehicles=5, focal_px=truth.focal_px),
+                           settings.pipeline.border_margin_px)
+    assert given.focal_source == "given" and given.focal_px == truth.focal_px and given.focal_sigma_px == 0.0
+    assert abs(given.scale.height_mm / truth.centre_mm[2] - 1.0) < 0.03
     # too few vehicles for the scale: refused with its reason, not a calibration
-    refused = auto_calibrate(evidence, recognised_models(TrueModelClassifier(MODEL_ID)),
+    refused = auto_calibrate(evidence, recognised_models(TrueModelClassifier(MODEL_ID), "expected"),
                              AutoCalibrationParams.from_config(min_vehicles=1000), settings.pipeline.border_margin_px)
     assert not refused and f"{result.scale.vehicles} vehicle(s) could be scaled by their model, 1000 needed" in str(refused)

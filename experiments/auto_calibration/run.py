@@ -226,8 +226,8 @@ def run_case(case: Case, folder: Path, params: AutoCalibrationParams, force: boo
     started = time.perf_counter()
     evidence = collect_traffic(folder / "scene" / "video.avi", params, settings, progress=False)
     gathered_s = time.perf_counter() - started
-    sources = {"recognised": recognised_models(classifier), "mean_size": mean_size_model(classifier),
-               "true_model": true_models(truth)}
+    sources = {"recognised": recognised_models(classifier, params.recognised_size),
+               "mean_size": mean_size_model(classifier), "true_model": true_models(truth)}
     rows, needed, results = [], [], {}
     for source, model_of in sources.items():
         result = auto_calibrate(evidence, model_of, params, settings.pipeline.border_margin_px)

@@ -45,13 +45,25 @@ def camera_from_vanishing_points(vp1_h: np.ndarray, vp2_h: np.ndarray, pp_px: np
     focal = focal_from_vanishing_points(vp1_h, vp2_h, pp_px)
     if isinstance(focal, FailedEstimate):
         return focal
-    K = PinholeCamera.intrinsics(focal, *image_size_px, principal_px=(float(pp_px[0]), float(pp_px[1])))
-    K_inv = np.linalg.inv(K)
-    along = K_inv @ np.asarray(vp1_h, float)
+    return camera_from_horizon(vp1_h, horizon_through(vp1_h, vp2_h), pp_px, focal, height_mm, image_size_px)
+
+
+def horizon_through(vp1_h: np.ndarray, vp2_h: np.ndarray) -> np.ndarray:
+    """The horizon's line (homogeneous) through the first vanishing point towards the second, finite or not."""
+    return np.cross(np.asarray(vp1_h, float), np.asarray(vp2_h, float))
+
+
+def camera_from_horizon(vp1_h: np.ndarray, horizon_h: np.ndarray, pp_px: np.ndarray, focal_px: float,
+                        height_mm: float, image_size_px: tuple[int, int]) -> PinholeCamera:
+    """The camera `height_mm` above the road with focal length `focal_px` whose road has the along direction's
+    vanishing point `vp1_h` and the horizon `horizon_h` (a homogeneous line through it): the road's normal is the
+    horizon's plane through the camera centre, so a focal length known from the lens needs no second point."""
+    K = PinholeCamera.intrinsics(focal_px, *image_size_px, principal_px=(float(pp_px[0]), float(pp_px[1])))
+    along = np.linalg.inv(K) @ np.asarray(vp1_h, float)
     along = along / np.linalg.norm(along) * (1.0 if along[2] >= 0 else -1.0)
-    across = K_inv @ np.asarray(vp2_h, float)
-    across = across - (across @ along) * along
-    up = np.cross(along, across / np.linalg.norm(across))
+    up = K.T @ np.asarray(horizon_h, float)
+    up = up - (up @ along) * along
+    up = up / np.linalg.norm(up)
     up = up if up[1] < 0 else -up  # the road's normal points up the image
     right = np.cross(along, up)
     return camera_at_height(PinholeCamera(K, np.column_stack([right, along, up]), np.zeros(3), *image_size_px),

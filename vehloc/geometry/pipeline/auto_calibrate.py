@@ -7,7 +7,7 @@ traffic, or none moving straight, is a `FailedEstimate` saying so, never a wrong
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import cv2
@@ -15,14 +15,17 @@ import numpy as np
 from tqdm import tqdm
 
 from vehloc.config import check_choice, check_range, params_from_config
+from vehloc.data.dimension_error import expected_dims_mm
 from vehloc.data.shapes import VehicleShape
 from vehloc.geometry.auto_calibration import (
     RobustScale,
     camera_at_height,
+    camera_from_horizon,
     camera_from_vanishing_points,
     combine_heights,
     focal_from_vanishing_points,
     height_from_sides,
+    horizon_through,
 )
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.camera_calibration import CameraCalibration
@@ -45,6 +48,7 @@ from vehloc.geometry.vanishing import Segments, VanishingPoint, find_vanishing_p
 from vehloc.infer.classifier import VehicleClassifier
 
 SCALE_SOURCES = ("recognised", "mean_size")
+RECOGNISED_SIZES = ("expected", "voted")
 ROAD_LINES_AGREEMENT = 0.9
 
 
@@ -53,8 +57,10 @@ class AutoCalibrationParams:
     """The settings of `conf/calibrate/auto_calibration/default.yaml`."""
 
     principal_point_px: tuple[float, float] | None
+    focal_px: float | None
     max_frames: int
     scale_source: str
+    recognised_size: str
     max_features: int
     detect_every_frames: int
     min_feature_distance_px: float
@@ -88,6 +94,7 @@ class AutoCalibrationParams:
     def __post_init__(self) -> None:
         check_range("max_frames", self.max_frames, 0)
         check_choice("scale_source", self.scale_source, SCALE_SOURCES)
+        check_choice("recognised_size", self.recognised_size, RECOGNISED_SIZES)
         check_range("max_features", self.max_features, 1, 10_000)
         check_range("detect_every_frames", self.detect_every_frames, 1, 1000)
         check_range("min_feature_distance_px", self.min_feature_distance_px, 1.0, 1000.0)
@@ -116,6 +123,8 @@ class AutoCalibrationParams:
         check_range("min_box_height_px", self.min_box_height_px, 4, 10_000)
         check_range("max_bottom_gap_fraction", self.max_bottom_gap_fraction, 0.0, low_open=True)
         check_range("min_vehicles", self.min_vehicles, 1, 100_000)
+        if self.focal_px is not None:
+            check_range("focal_px", self.focal_px, 0.0, 1e6, low_open=True)
         if self.principal_point_px is not None and len(self.principal_point_px) != 2:
             raise ValueError(f"principal_point_px must be [x, y] or null, got {list(self.principal_point_px)}")
 
@@ -222,10 +231,15 @@ def size_of(dims_mm: np.ndarray) -> np.ndarray:
     return np.cbrt(np.prod(np.asarray(dims_mm, dtype=float), axis=-1))
 
 
-def recognised_models(classifier: VehicleClassifier) -> ModelOfTrack:
-    """Each track's voted model (track voting over its largest views), its size doubt the probability-weighted
-    spread of the classes' sizes about the voted one's."""
-    sizes = size_of(classifier.metadata.dims_mm)
+def recognised_models(classifier: VehicleClassifier, size: str) -> ModelOfTrack:
+    """Each track's voted model (track voting over its largest views). `size` "voted": that model's shape as it is;
+    "expected": stretched to the vote's expected dimensions (the probability-weighted top-k of the classifier's
+    metadata, as Table 1's dimension error), so that a vote that cannot tell the vehicle apart gives it a size near
+    its likely models' middle rather than the one that won by a hair. Its size doubt: the probability-weighted spread
+    of the classes' sizes about the size given."""
+    check_choice("size", size, RECOGNISED_SIZES)
+    dims = classifier.metadata.dims_mm
+    sizes = size_of(dims)
 
     def model_of(track: VehicleTrack) -> VehicleModel | None:
         if track.votes.empty:
@@ -233,9 +247,15 @@ def recognised_models(classifier: VehicleClassifier) -> ModelOfTrack:
         probabilities = track.votes.vote(classifier)
         top = int(np.argmax(probabilities))
         spec = classifier.classes[top]
-        doubt = float(np.sqrt(probabilities @ (sizes / sizes[top] - 1.0) ** 2))
-        return VehicleModel(classifier.metadata.shape_of(spec.model_id), spec.model, spec.model_id,
-                            doubt)
+        shape = classifier.metadata.shape_of(spec.model_id)
+        if size == "expected":
+            expected = expected_dims_mm(probabilities[None], dims, classifier.metadata.expected_top_k)[0]
+            shape = VehicleShape(tuple(part * (expected / dims[top]) for part in shape.parts))
+            given = float(size_of(expected))
+        else:
+            given = float(sizes[top])
+        doubt = float(np.sqrt(probabilities @ (sizes / given - 1.0) ** 2))
+        return VehicleModel(shape, spec.model, spec.model_id, doubt)
 
     return model_of
 
@@ -307,7 +327,8 @@ class AutoCalibration:
     point, the focal length with its 1-sigma, the camera at the height the vehicles gave, the height's combination,
     each vehicle's estimate, and the segments the vanishing points were found on (`along`: the road's lines along the
     traffic where it has them (`vp1_source` "road lines"), else the paths of points on the vehicles ("motion");
-    `across`: the vehicles' edges that may run across the road)."""
+    `across`: the vehicles' edges that may run across the road); the focal length's source, "vanishing points" or
+    "given" (the lens's, `focal_px`: the second vanishing point then the camera's, from it and the horizon)."""
 
     vp1: VanishingPoint
     vp2: VanishingPoint
@@ -322,6 +343,7 @@ class AutoCalibration:
     rms_reprojection_px: float
     scale_source: str
     vp1_source: str
+    focal_source: str
 
     def camera_calibration(self, source: str) -> CameraCalibration:
         """The calibration as localization uses it, with the scale's relative 1-sigma."""
@@ -341,7 +363,7 @@ class AutoCalibration:
             "homography_world_mm_to_image_px": camera.road_to_image().normalised_matrix.tolist(),
             "rms_reprojection_px": self.rms_reprojection_px,
             "scale_sigma_fraction": self.scale.sigma_fraction,
-            "focal_px": self.focal_px, "focal_sigma_px": self.focal_sigma_px,
+            "focal_px": self.focal_px, "focal_sigma_px": self.focal_sigma_px, "focal_source": self.focal_source,
             "camera_height_mm": self.scale.height_mm, "camera_height_sigma_mm": self.scale.sigma_mm,
             "camera_tilt_deg": tilt_deg, "camera_roll_deg": roll_deg,
             "camera_centre_mm": camera.centre_mm.tolist(),
@@ -415,9 +437,16 @@ def auto_calibrate(evidence: TrafficEvidence, model_of: ModelOfTrack, params: Au
     vp2 = find_vanishing_point(across, params.edge_max_angle_deg, params.min_support)
     if isinstance(vp2, FailedEstimate):
         return FailedEstimate(f"the vehicles' edges across the road give no second vanishing point ({len(across)} edges): {vp2}")
-    unit = camera_from_vanishing_points(vp1.point_h, vp2.point_h, pp, params.nominal_height_mm, (width, height))
-    if isinstance(unit, FailedEstimate):
-        return unit
+    if params.focal_px is None:
+        unit = camera_from_vanishing_points(vp1.point_h, vp2.point_h, pp, params.nominal_height_mm, (width, height))
+        if isinstance(unit, FailedEstimate):
+            return unit
+        focal_sigma = focal_sigma_px(along, across, vp1, vp2, pp, params.bootstrap_samples)
+    else:
+        unit = camera_from_horizon(vp1.point_h, horizon_through(vp1.point_h, vp2.point_h), pp, params.focal_px,
+                                   params.nominal_height_mm, (width, height))
+        across_point = unit.K @ unit.R[:, 0]
+        vp2, focal_sigma = replace(vp2, point_h=across_point / np.linalg.norm(across_point)), 0.0
     vehicles = []
     for track in evidence.tracks:
         outlines = evidence.outlines.get(track.track_id, {})
@@ -433,6 +462,6 @@ def auto_calibrate(evidence: TrafficEvidence, model_of: ModelOfTrack, params: Au
     scale = combine_heights(np.array([v.height_mm for v in vehicles]), np.array([v.size_doubt for v in vehicles]))
     camera = camera_at_height(unit, scale.height_mm)
     focal = float(unit.K[0, 0])
-    return AutoCalibration(vp1, vp2, pp, focal, focal_sigma_px(along, across, vp1, vp2, pp, params.bootstrap_samples),
-                           camera, scale, tuple(vehicles), along, across, along_rms_px(along, vp1), params.scale_source,
-                           vp1_source)
+    return AutoCalibration(vp1, vp2, pp, focal, focal_sigma, camera, scale, tuple(vehicles), along, across,
+                           along_rms_px(along, vp1), params.scale_source, vp1_source,
+                           "vanishing points" if params.focal_px is None else "given")

@@ -105,19 +105,21 @@ def run_auto(params: CalibrateParams, auto: AutoCalibrationParams, settings: Loc
     evidence = collect_traffic(params.video, auto, settings)
     if evidence.early_end:
         print(f"vehloc-calibrate: warning: {evidence.early_end}", file=sys.stderr, flush=True)
-    model_of = recognised_models(classifier) if auto.scale_source == "recognised" else mean_size_model(classifier)
+    model_of = (recognised_models(classifier, auto.recognised_size) if auto.scale_source == "recognised"
+                else mean_size_model(classifier))
     result = auto_calibrate(evidence, model_of, auto, settings.pipeline.border_margin_px)
     if isinstance(result, FailedEstimate):
         raise CalibrationError(f"{params.video}: no automatic calibration: {result}")
     write_auto_calibration_files(result, evidence.background_bgr, out_dir, params.grid_step_mm,
                                  {"video": params.video, "model": params.model})
     widths = float(np.linalg.norm(result.vp2.point_px - result.pp_px)) / evidence.image_size_px[0]
-    if widths > FAR_VP2_WIDTHS:
+    if auto.focal_px is None and widths > FAR_VP2_WIDTHS:
         print(f"warning: the second vanishing point is {widths:.0f} image widths from the image's centre: the focal "
               "length, and with it distances along the road, rest on the slight convergence of the edges across the "
-              "road and may be far off")
+              "road and may be far off; where the lens's focal length is known, give it (auto.focal_px=...)")
     print(
-        f"focal {result.focal_px:.1f} +- {result.focal_sigma_px:.1f} px, camera {result.scale.height_mm / 1000:.2f} m up "
+        f"focal {result.focal_px:.1f} +- {result.focal_sigma_px:.1f} px ({result.focal_source}), "
+        f"camera {result.scale.height_mm / 1000:.2f} m up "
         f"+- {100 * result.scale.sigma_fraction:.1f} % from {result.scale.vehicles} vehicles "
         f"({len(evidence.tracks)} tracked, {evidence.frames} frames); wrote {out_dir / 'calibration.json'} and overlay.png"
     )
