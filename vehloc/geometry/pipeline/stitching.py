@@ -1,7 +1,9 @@
 """One vehicle, two tracks: where a track lost its vehicle (hidden in another's blob, its track gone on to the other
 vehicle when the blobs parted) a new track starts on it. Their two measured paths are joined where the later one
 starts where the earlier one's steady motion puts the vehicle then, the earlier one ends where the later one's puts
-it, and their speeds agree: the road's frame tells it far better than the boxes in the image did."""
+it, and their speeds agree: the road's frame tells it far better than the boxes in the image did. A track measured by its
+box's bottom (its nearest end) beside one measured by its model's shape (its centre) is compared, and joined, moved half
+the model's length to its centre."""
 
 from __future__ import annotations
 
@@ -13,6 +15,23 @@ import numpy as np
 from vehloc.geometry.outcome import NotPlaced
 from vehloc.geometry.pipeline.track_speed import StitchParams, VehiclePath, VehicleSpeed
 from vehloc.geometry.speed import SpeedFit
+
+ToCentre = Callable[[VehicleSpeed, float], VehicleSpeed]
+"""A vehicle measured by its box's bottom as one of the given length (mm) measured at its centre would be."""
+
+
+def by_box_bottom(vehicle: VehicleSpeed) -> bool:
+    return vehicle.reference == "box_bottom"
+
+
+def as_each_other(a: VehicleSpeed, b: VehicleSpeed, to_centre: ToCentre) -> tuple[VehicleSpeed, VehicleSpeed]:
+    """Two vehicles with their paths on the same point of a vehicle: one measured by its box's bottom moved to its
+    centre by the other's length, where the other is measured at its centre (by its model's shape)."""
+    if by_box_bottom(a) and not by_box_bottom(b) and b.dims_mm is not None:
+        return to_centre(a, b.dims_mm[0]), b
+    if by_box_bottom(b) and not by_box_bottom(a) and a.dims_mm is not None:
+        return a, to_centre(b, a.dims_mm[0])
+    return a, b
 
 
 def used_path(vehicle: VehicleSpeed) -> tuple[np.ndarray, np.ndarray]:
@@ -38,11 +57,11 @@ def speeds_agree(a: SpeedFit, b: SpeedFit, max_difference_fraction: float) -> bo
 
 
 def stitch(vehicles: Sequence[VehicleSpeed], params: StitchParams,
-           refit: Callable[[VehiclePath], SpeedFit | NotPlaced]) -> list[VehicleSpeed]:
+           refit: Callable[[VehiclePath], SpeedFit | NotPlaced], to_centre: ToCentre) -> list[VehicleSpeed]:
     """The vehicles with each pair of measured tracks that are one vehicle joined (`joined`): the later path begins
     within `max_gap_s` after the earlier ends, their speeds agree (`max_speed_difference_fraction`) and they meet
-    within `max_offset_mm` (`offset_mm`); the closest pairs first, each track joined once at each end, chains joined
-    whole. `refit` measures the joined path's speed."""
+    within `max_offset_mm` (`offset_mm`, as `as_each_other`); the closest pairs first, each track joined once at each
+    end, chains joined whole. `refit` measures the joined path's speed."""
     frames = {v.track_id: used_path(v)[0] for v in vehicles if isinstance(v.speed, SpeedFit)}
     measured = sorted((v for v in vehicles if v.track_id in frames), key=lambda v: frames[v.track_id][0])
     starts = np.array([frames[v.track_id][0] for v in measured])
@@ -51,8 +70,8 @@ def stitch(vehicles: Sequence[VehicleSpeed], params: StitchParams,
         last = frames[a.track_id][-1]
         after = measured[int(np.searchsorted(starts, last, side="right")):
                          int(np.searchsorted(starts, last + params.max_gap_s * a.fps, side="right"))]
-        pairs += [(offset_mm(a, b, params.ends_points), a.track_id, b.track_id) for b in after
-                  if speeds_agree(a.speed, b.speed, params.max_speed_difference_fraction)]
+        pairs += [(offset_mm(*as_each_other(a, b, to_centre), params.ends_points), a.track_id, b.track_id)
+                  for b in after if speeds_agree(a.speed, b.speed, params.max_speed_difference_fraction)]
     pairs.sort()
     by_id = {v.track_id: v for v in vehicles}
     next_of: dict[int, int] = {}
@@ -67,15 +86,19 @@ def stitch(vehicles: Sequence[VehicleSpeed], params: StitchParams,
         chain = [vehicle]
         while chain[-1].track_id in next_of:
             chain.append(by_id[next_of[chain[-1].track_id]])
-        result.append(joined(chain, refit) if len(chain) > 1 else vehicle)
+        result.append(joined(chain, refit, to_centre) if len(chain) > 1 else vehicle)
     return result
 
 
-def joined(chain: Sequence[VehicleSpeed], refit: Callable[[VehiclePath], SpeedFit | NotPlaced]) -> VehicleSpeed:
+def joined(chain: Sequence[VehicleSpeed], refit: Callable[[VehiclePath], SpeedFit | NotPlaced],
+           to_centre: ToCentre) -> VehicleSpeed:
     """One vehicle of the tracks of `chain` (in order): the first's id, the model of the one measured on the most
-    points, their paths' used points together, measured again by `refit`, the frames each followed it in until the next
-    took over, and the ids of all (`joined_track_ids`)."""
-    longest = max(chain, key=lambda v: int(v.used.sum()))
+    points (of those measured by their model's shape, where there is one: the others moved to its centre), their paths'
+    used points together, measured again by `refit`, the frames each followed it in until the next took over, and the
+    ids of all (`joined_track_ids`)."""
+    shaped = [v for v in chain if not by_box_bottom(v)]
+    longest = max(shaped or chain, key=lambda v: int(v.used.sum()))
+    chain = [as_each_other(v, longest, to_centre)[0] for v in chain]
     parts = [used_path(v) for v in chain]
     boxes = np.concatenate([v.path.boxes_px[v.used] for v in chain])
     points_px = np.concatenate([v.path.points_px[v.used] for v in chain])

@@ -304,6 +304,20 @@ class TrackSpeeds:
         return replace(vehicle, path=path, speed=self.refit(path), reference="box_bottom",
                        model_source=ModelSource.UNKNOWN)
 
+    def at_centre(self, vehicle: VehicleSpeed, length_mm: float) -> VehicleSpeed:
+        """A vehicle measured by its box's bottom as one `length_mm` long measured at its footprint centre would be:
+        each point moved half the length along its motion away from the camera (its box's bottom is its nearest end's
+        ground line) and its speed measured again; as it is without a camera or a speed."""
+        camera = self.calibration.camera
+        if camera is None or not isinstance(vehicle.speed, SpeedFit) or not len(vehicle.path.frames):
+            return vehicle
+        direction = vehicle.speed.velocity_mm_s / np.linalg.norm(vehicle.speed.velocity_mm_s)
+        points = vehicle.path.points_mm
+        towards_camera = np.where((camera.centre_mm[:2] - points) @ direction >= 0.0, 1.0, -1.0)
+        moved = points - towards_camera[:, None] * (length_mm / 2.0) * direction
+        path = replace(vehicle.path, points_mm=moved, points_px=self.calibration.road_to_image(moved))
+        return replace(vehicle, path=path, speed=self.refit(path))
+
     def candidate(self, model_id: int, probability: float, frames: np.ndarray, bottoms: np.ndarray, boxes: dict,
                   heading_deg: float | None, failure: NotPlaced) -> ModelCandidate:
         """The vehicle measured as `model_id`: its path and speed (`failure` where there is no heading to measure

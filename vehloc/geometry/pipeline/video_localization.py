@@ -105,7 +105,7 @@ def localize_video(localizer: Localizer, video: str | Path, out_dir: Path, truth
     summary = ""
     if localizer.speed_params.enabled:
         vehicles = choose_models(sorted(vehicles, key=lambda v: v.track_id), localizer.speed_params)
-        vehicles = stitch(vehicles, localizer.speed_params.stitch, speeds.refit)
+        vehicles = stitch(vehicles, localizer.speed_params.stitch, speeds.refit, speeds.at_centre)
         vehicles = along_traffic(vehicles, localizer.speed_params)
         vehicles = apart_from_known(vehicles, localizer.speed_params, localizer.calibration.road_to_image)
         vehicles = assign_lanes(vehicles, localizer.speed_params)
