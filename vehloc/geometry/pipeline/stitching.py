@@ -2,8 +2,8 @@
 vehicle when the blobs parted) a new track starts on it. Their two measured paths are joined where the later one
 starts where the earlier one's steady motion puts the vehicle then, the earlier one ends where the later one's puts
 it, and their speeds agree: the road's frame tells it far better than the boxes in the image did. A track measured by its
-box's bottom (its nearest end) beside one measured by its model's shape (its centre) is compared, and joined, moved half
-the model's length to its centre."""
+box's bottom (its nearest end) is compared with one measured by its model's shape (its centre) moved half the model's
+length to its centre; joined, the vehicle is measured on the shape's points only."""
 
 from __future__ import annotations
 
@@ -86,22 +86,21 @@ def stitch(vehicles: Sequence[VehicleSpeed], params: StitchParams,
         chain = [vehicle]
         while chain[-1].track_id in next_of:
             chain.append(by_id[next_of[chain[-1].track_id]])
-        result.append(joined(chain, refit, to_centre) if len(chain) > 1 else vehicle)
+        result.append(joined(chain, refit) if len(chain) > 1 else vehicle)
     return result
 
 
-def joined(chain: Sequence[VehicleSpeed], refit: Callable[[VehiclePath], SpeedFit | NotPlaced],
-           to_centre: ToCentre) -> VehicleSpeed:
+def joined(chain: Sequence[VehicleSpeed], refit: Callable[[VehiclePath], SpeedFit | NotPlaced]) -> VehicleSpeed:
     """One vehicle of the tracks of `chain` (in order): the first's id, the model of the one measured on the most
-    points (of those measured by their model's shape, where there is one: the others moved to its centre), their paths'
-    used points together, measured again by `refit`, the frames each followed it in until the next took over, and the
-    ids of all (`joined_track_ids`)."""
-    shaped = [v for v in chain if not by_box_bottom(v)]
-    longest = max(shaped or chain, key=lambda v: int(v.used.sum()))
-    chain = [as_each_other(v, longest, to_centre)[0] for v in chain]
-    parts = [used_path(v) for v in chain]
-    boxes = np.concatenate([v.path.boxes_px[v.used] for v in chain])
-    points_px = np.concatenate([v.path.points_px[v.used] for v in chain])
+    points, their paths' used points together, measured again by `refit`, the frames each followed it in until the next
+    took over, and the ids of all (`joined_track_ids`). Where some were measured by their model's shape, only those
+    are: the box's bottom is no fixed point of the vehicle (its shadow, its front seen ever more from above), and a
+    track measured by it only says where the vehicle went on."""
+    measured = [v for v in chain if not by_box_bottom(v)] or list(chain)
+    longest = max(measured, key=lambda v: int(v.used.sum()))
+    parts = [used_path(v) for v in measured]
+    boxes = np.concatenate([v.path.boxes_px[v.used] for v in measured])
+    points_px = np.concatenate([v.path.points_px[v.used] for v in measured])
     path = VehiclePath(np.concatenate([f for f, _ in parts]), np.concatenate([p for _, p in parts]), points_px, boxes)
     seen_frames, seen_boxes = [], []
     for vehicle, following in zip(chain, list(chain[1:]) + [None]):
