@@ -74,6 +74,17 @@ def test_parallel_segments_meet_at_infinity_and_scattered_ones_nowhere() -> None
     assert isinstance(one, FailedEstimate) and not one and "too few" in str(one)
 
 
+def _assert_the_same_road(camera: PinholeCamera, truth: PinholeCamera) -> None:
+    """The same road: distances between road points through the true camera's pixels, to 1e-6 relative; and the same
+    tilt and roll (world frames differ only by a turn about the vertical and a shift)."""
+    road = np.array([[x, y] for x in (-3500.0, 0.0, 3500.0) for y in (20000.0, 30000.0, 40000.0)])
+    back = camera.image_to_road(truth.road_to_image()(road))
+    first, second = np.triu_indices(len(road), k=1)
+    true_mm = np.linalg.norm(road[first] - road[second], axis=1)
+    assert np.allclose(np.linalg.norm(back[first] - back[second], axis=1), true_mm, rtol=1e-6)
+    assert np.isclose(camera.R[2, 2], truth.R[2, 2], atol=1e-9) and np.isclose(camera.R[0, 2], truth.R[0, 2], atol=1e-9)
+
+
 @pytest.mark.parametrize("name", CAMERAS)
 def test_the_camera_follows_from_its_two_vanishing_points(name: str) -> None:
     truth = CAMERAS[name]
@@ -81,14 +92,7 @@ def test_the_camera_follows_from_its_two_vanishing_points(name: str) -> None:
     camera = camera_from_vanishing_points(vp1, vp2, truth.K[:2, 2], float(truth.centre_mm[2]),
                                           (truth.width_px, truth.height_px))
     assert abs(camera.focal_px - truth.focal_px) < 1e-6 * truth.focal_px
-    # the same road: distances between road points through the true camera's pixels, to 1e-6 relative
-    road = np.array([[x, y] for x in (-3500.0, 0.0, 3500.0) for y in (20000.0, 30000.0, 40000.0)])
-    back = camera.image_to_road(truth.road_to_image()(road))
-    first, second = np.triu_indices(len(road), k=1)
-    true_mm = np.linalg.norm(road[first] - road[second], axis=1)
-    assert np.allclose(np.linalg.norm(back[first] - back[second], axis=1), true_mm, rtol=1e-6)
-    # the same tilt and roll (world frames differ only by a turn about the vertical and a shift)
-    assert np.isclose(camera.R[2, 2], truth.R[2, 2], atol=1e-9) and np.isclose(camera.R[0, 2], truth.R[0, 2], atol=1e-9)
+    _assert_the_same_road(camera, truth)
 
 
 @pytest.mark.parametrize("name", CAMERAS)
@@ -101,12 +105,7 @@ def test_a_known_focal_length_needs_only_the_horizon_s_direction(name: str) -> N
     horizon = horizon_through(_homogeneous(vp1), _homogeneous(far))
     camera = camera_from_horizon(_homogeneous(vp1), horizon, truth.K[:2, 2], truth.focal_px, float(truth.centre_mm[2]),
                                  (truth.width_px, truth.height_px))
-    road = np.array([[x, y] for x in (-3500.0, 0.0, 3500.0) for y in (20000.0, 30000.0, 40000.0)])
-    back = camera.image_to_road(truth.road_to_image()(road))
-    first, second = np.triu_indices(len(road), k=1)
-    true_mm = np.linalg.norm(road[first] - road[second], axis=1)
-    assert np.allclose(np.linalg.norm(back[first] - back[second], axis=1), true_mm, rtol=1e-6)
-    assert np.isclose(camera.R[2, 2], truth.R[2, 2], atol=1e-9) and np.isclose(camera.R[0, 2], truth.R[0, 2], atol=1e-9)
+    _assert_the_same_road(camera, truth)
     # the second vanishing point is the camera's image of the across direction: the true one
     across = camera.K @ camera.R[:, 0]
     assert np.allclose(across[:2] / across[2], vp2, atol=1e-6 * np.linalg.norm(vp2))
