@@ -1,9 +1,10 @@
 """Cameras calibrated by the vehicles they see, against the truth and against the marker calibration: per camera
 set-up (`conf/scene/traffic_cam_*`: heights 4-15 m, 30-90 degree lenses, tilts 8-40 degrees, the road at 3-30 degrees
 to the optical axis, rolls up to 3 degrees, at 1920x1080, 1280x720 and 320x240; 90 s of traffic), one pass over the
-video gathers the traffic, and the camera is calibrated from it three ways: the scale from the recognised models
-(the exported classifier's vote), from the catalog's mean car (Dubská's rule) and from the true models (the oracle,
-each track matched to the scene's car whose boxes it follows). Each is scored against the scene's true camera (focal
+video gathers the traffic, and the camera is calibrated from it four ways: the scale from the recognised models
+(the exported classifier's vote; `recognised_expected`: each voted model at the vote's expected dimensions), from the
+catalog's mean car (Dubská's rule) and from the true models (the oracle, each track matched to the scene's car whose
+boxes it follows). Each is scored against the scene's true camera (focal
 length, tilt, roll, height, distances along and across the road between the lanes' points), and the speeds are
 measured with the recognised-models calibration and with the markers' (`vehloc-calibrate mode=detect`, `guess` at
 320x240) and scored with the benchmark's rules.
@@ -67,7 +68,7 @@ SETUPS = ["traffic_cam_a_1080p", "traffic_cam_b_1080p", "traffic_cam_c_1080p", "
           "traffic_cam_e_720p", "traffic_cam_f_720p", "traffic_cam_g_240p", "traffic_cam_h_240p"]
 SPLITS = {"dev": [("traffic_720p", 0), ("traffic_240p", 0), ("traffic_1080p", 0)],
           "heldout": [(name, 300) for name in SETUPS]}
-SOURCES = ("recognised", "mean_size", "true_model")
+SOURCES = ("recognised", "recognised_expected", "mean_size", "true_model")
 VEHICLE_COUNTS = (10, 20, 50, 100)
 SUBSETS = 200
 BARS = {"median_scale_error_percent": 2.0, "worst_scale_error_percent": 5.0,
@@ -227,6 +228,7 @@ def run_case(case: Case, folder: Path, params: AutoCalibrationParams, force: boo
     evidence = collect_traffic(folder / "scene" / "video.avi", params, settings, progress=False)
     gathered_s = time.perf_counter() - started
     sources = {"recognised": recognised_models(classifier, params.recognised_size),
+               "recognised_expected": recognised_models(classifier, "expected"),
                "mean_size": mean_size_model(classifier), "true_model": true_models(truth)}
     rows, needed, results = [], [], {}
     for source, model_of in sources.items():
@@ -260,10 +262,11 @@ def plot(table: pd.DataFrame) -> bytes:
     figure, (left, right) = plt.subplots(1, 2, figsize=(13, 4.8), dpi=110)
     cases = list(dict.fromkeys(table["case"]))
     positions = np.arange(len(cases))
-    colours = {"recognised": "#3870a8", "mean_size": "#c0504d", "true_model": "#4f9a5a"}
-    for offset, source in zip((-0.27, 0.0, 0.27), SOURCES):
+    colours = {"recognised": "#3870a8", "recognised_expected": "#8fb3d9", "mean_size": "#c0504d",
+               "true_model": "#4f9a5a"}
+    for offset, source in zip((-0.3, -0.1, 0.1, 0.3), SOURCES):
         rows = table[table["source"] == source].set_index("case").reindex(cases)
-        left.bar(positions + offset, rows["scale_error_percent"], 0.27, color=colours[source], label=source)
+        left.bar(positions + offset, rows["scale_error_percent"], 0.2, color=colours[source], label=source)
     left.axhspan(-2, 2, color="#dddddd", zorder=0, label="±2 % (median bar)")
     left.set_xticks(positions, cases, rotation=60, ha="right", fontsize=7)
     left.set_ylabel("scale error (%)")
