@@ -21,6 +21,7 @@ ToCentre = Callable[[VehicleSpeed, float], VehicleSpeed]
 
 
 def by_box_bottom(vehicle: VehicleSpeed) -> bool:
+    """Whether its path is the road point under its box's bottom (its nearest end), not its centre."""
     return vehicle.reference == "box_bottom"
 
 

@@ -307,7 +307,8 @@ class TrackSpeeds:
     def at_centre(self, vehicle: VehicleSpeed, length_mm: float) -> VehicleSpeed:
         """A vehicle measured by its box's bottom as one `length_mm` long measured at its footprint centre would be:
         each point moved half the length along its motion away from the camera (its box's bottom is its nearest end's
-        ground line) and its speed measured again; as it is without a camera or a speed."""
+        ground line) and its speed measured again; as it is without a camera or a speed, or where the moved path has
+        none."""
         camera = self.calibration.camera
         if camera is None or not isinstance(vehicle.speed, SpeedFit) or not len(vehicle.path.frames):
             return vehicle
@@ -316,7 +317,8 @@ class TrackSpeeds:
         towards_camera = np.where((camera.centre_mm[:2] - points) @ direction >= 0.0, 1.0, -1.0)
         moved = points - towards_camera[:, None] * (length_mm / 2.0) * direction
         path = replace(vehicle.path, points_mm=moved, points_px=self.calibration.road_to_image(moved))
-        return replace(vehicle, path=path, speed=self.refit(path))
+        speed = self.refit(path)
+        return replace(vehicle, path=path, speed=speed) if isinstance(speed, SpeedFit) else vehicle
 
     def candidate(self, model_id: int, probability: float, frames: np.ndarray, bottoms: np.ndarray, boxes: dict,
                   heading_deg: float | None, failure: NotPlaced) -> ModelCandidate:
