@@ -176,7 +176,8 @@ def test_an_unsure_vote_sizes_its_vehicle_by_the_expected_dimensions() -> None:
     unsure[[ids.index(11), ids.index(9), ids.index(7), ids.index(5), ids.index(3)]] = [0.2, 0.19, 0.18, 0.17, 0.16]
     unsure /= unsure.sum()
     track = SimpleNamespace(votes=_Vote(unsure))
-    body_mm = lambda shape: np.ptp(shape.points_mm, axis=0) - [0.0, 300.0, 0.0]  # noqa: E731  (the mirrors: 150 mm a side)
+    # a shape's body without its mirrors (150 mm a side)
+    body_mm = lambda shape: np.ptp(shape.points_mm, axis=0) - [0.0, 300.0, 0.0]  # noqa: E731
     fiat = metadata.dims_mm[ids.index(11)]
     voted = recognised_models(classifier, "voted")(track)
     assert voted.label == "Fiat 500" and np.allclose(body_mm(voted.shape), fiat)
@@ -185,7 +186,8 @@ def test_an_unsure_vote_sizes_its_vehicle_by_the_expected_dimensions() -> None:
     weights = np.array([0.2, 0.19, 0.18, 0.17, 0.16]) / 0.9
     wanted = weights @ metadata.dims_mm[[ids.index(i) for i in top5]]
     assert expected.label == "Fiat 500"
-    # every part stretched by the same factors: the body to the expected dimensions, the mirrors with it (within 2 % of the width)
+    # every part stretched by the same factors: the body to the expected dimensions, the mirrors with it (within 2 %
+    # of the width)
     stretched = np.ptp(expected.shape.points_mm, axis=0)
     assert np.allclose(stretched[[0, 2]], wanted[[0, 2]], rtol=1e-9)
     assert abs(stretched[1] / (wanted[1] + 300.0) - 1.0) < 0.02

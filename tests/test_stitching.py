@@ -64,17 +64,19 @@ def _unchanged(vehicle: VehicleSpeed, length_mm: float) -> VehicleSpeed:
 @pytest.mark.parametrize("heading_deg", [-90.0, 90.0])
 @pytest.mark.parametrize("box_bottom_first", [False, True])
 def test_a_track_measured_by_its_box_bottom_is_joined_at_its_centre(heading_deg: float, box_bottom_first: bool) -> None:
-    """One Spirior, one track measured at its centre (its model's shape), the other by its box's bottom (no likely model's
-    size there: its nearest end's ground line, half its length, 2.42 m, nearer the camera than its centre): apart
-    without moving it (2.42 m is beyond the 1 m offset), joined with it, as a Spirior measured on its centre's points
-    only (the box's bottom is no fixed point of a vehicle), and followed in every frame of both."""
+    """One Spirior, one track measured at its centre (its model's shape), the other by its box's bottom (no likely
+    model's size there: its nearest end's ground line, half its length, 2.42 m, nearer the camera than its centre):
+    apart without moving it (2.42 m is beyond the 1 m offset), joined with it, as a Spirior measured on its centre's
+    points only (the box's bottom is no fixed point of a vehicle), and followed in every frame of both."""
     start_y = 80000.0 if heading_deg < 0 else 20000.0  # towards the camera (its front nearest) or away (its rear)
     first_frames, later_frames = (range(0, 30), range(45, 80))
     bottom_frames, centre_frames = (first_frames, later_frames) if box_bottom_first else (later_frames, first_frames)
-    centre = replace(_vehicle(1 if not box_bottom_first else 4, centre_frames, 80.0, start_y_mm=start_y,
+    centre = replace(_vehicle(4 if box_bottom_first else 1, centre_frames, 80.0, start_y_mm=start_y,
                               heading_deg=heading_deg), dims_mm=SPIRIOR_MM, model="Spirior", model_id=9)
-    bottom = _vehicle(4 if not box_bottom_first else 1, bottom_frames, 80.0, start_y_mm=start_y, heading_deg=heading_deg)
-    nearest_end = bottom.path.points_mm - [0.0, SPIRIOR_MM[0] / 2.0]  # its end nearer the camera (at Y -4 m): front or rear
+    bottom = _vehicle(1 if box_bottom_first else 4, bottom_frames, 80.0, start_y_mm=start_y,
+                      heading_deg=heading_deg)
+    # its end nearer the camera (at Y -4 m): its front or its rear
+    nearest_end = bottom.path.points_mm - [0.0, SPIRIOR_MM[0] / 2.0]
     bottom_path = replace(bottom.path, points_mm=nearest_end)
     bottom = replace(bottom, path=bottom_path, speed=_refit(bottom_path), reference="box_bottom",
                      model_source=ModelSource.UNKNOWN)

@@ -40,7 +40,8 @@ def _truck_track(track_id: int, lateral_mm: float, speed_kmh: float, start_y_mm:
     for frame in range(frames):
         front_mm = np.array([[lateral_mm, start_y_mm - frame / FPS * speed_kmh / 3.6 * 1000.0]])
         u, v = CAMERA.road_to_image()(front_mm)[0]
-        box = Box(int(round(u)) - TRUCK_HALF_WIDTH_PX, int(round(v)) - TRUCK_HEIGHT_PX, int(round(u)) + TRUCK_HALF_WIDTH_PX,
+        box = Box(int(round(u)) - TRUCK_HALF_WIDTH_PX, int(round(v)) - TRUCK_HEIGHT_PX,
+                  int(round(u)) + TRUCK_HALF_WIDTH_PX,
                   int(round(v)) + 1)
         track.frames.append(frame)
         track.boxes.append(box)

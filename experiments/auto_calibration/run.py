@@ -4,8 +4,8 @@ to the optical axis, rolls up to 3 degrees, at 1920x1080, 1280x720 and 320x240; 
 video gathers the traffic, and the camera is calibrated from it four ways: the scale from the recognised models
 (the exported classifier's vote; `recognised_expected`: each voted model at the vote's expected dimensions), from the
 catalog's mean car (Dubská's rule) and from the true models (the oracle, each track matched to the scene's car whose
-boxes it follows). Each is scored against the scene's true camera (focal
-length, tilt, roll, height, distances along and across the road between the lanes' points), and the speeds are
+boxes it follows). Each is scored against the scene's true camera (focal length, tilt, roll, height, distances along
+and across the road between the lanes' points), and the speeds are
 measured with the recognised-models calibration and with the markers' (`vehloc-calibrate mode=detect`, `guess` at
 320x240) and scored with the benchmark's rules.
 

@@ -1,7 +1,8 @@
 """The localization pipeline: the geometry of `vehloc.geometry` run over a video with the classifier. The
 frames' vehicle boxes are followed by the tracker (one `VehicleTrack` per vehicle, removed when lost), each
 track's crops are voted on once, the stopped (or every) vehicle is placed and fitted, and each outcome is a
-`VehicleRecord`; every finished track becomes a `VehicleSpeed` (path, speed, lane; its model checked against its boxes' height; a vehicle of no likely model's size measured by its box's bottom); around it the video reading, the
+`VehicleRecord`; every finished track becomes a `VehicleSpeed` (path, speed, lane; its model checked against its
+boxes' height; a vehicle of no likely model's size measured by its box's bottom); around it the video reading, the
 records' and speeds' files and pictures, the speed benchmark's files and scoring, Table 2 against a scene's truth,
 the site calibration's files, the automatic calibration from a video's traffic and its files, and the `vehloc-localize`, `vehloc-calibrate` and `vehloc-speed-eval` CLIs. The names
 below are its API."""

@@ -1,9 +1,9 @@
 """One vehicle, two tracks: where a track lost its vehicle (hidden in another's blob, its track gone on to the other
 vehicle when the blobs parted) a new track starts on it. Their two measured paths are joined where the later one
 starts where the earlier one's steady motion puts the vehicle then, the earlier one ends where the later one's puts
-it, and their speeds agree: the road's frame tells it far better than the boxes in the image did. A track measured by its
-box's bottom (its nearest end) is compared with one measured by its model's shape (its centre) moved half the model's
-length to its centre; joined, the vehicle is measured on the shape's points only."""
+it, and their speeds agree: the road's frame tells it far better than the boxes in the image did. A track measured by
+its box's bottom (its nearest end) is compared with one measured by its model's shape (its centre) moved half the
+model's length to its centre; joined, the vehicle is measured on the shape's points only."""
 
 from __future__ import annotations
 
