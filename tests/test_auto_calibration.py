@@ -242,6 +242,7 @@ def test_calibrate_auto_refuses_a_video_without_traffic(tmp_path: Path) -> None:
     (["mode=auto", "video=v.avi", "model=m.onnx", "auto.min_vehicles=0"], "auto.min_vehicles: must be in [1, 100000]"),
     (["mode=auto", "video=v.avi", "model=m.onnx", "auto.scale_source=guess"], "auto.scale_source: expected one of"),
     (["mode=auto", "video=v.avi", "model=m.onnx", "auto.recognised_size=top"], "auto.recognised_size: expected one of"),
+    (["mode=auto", "video=v.avi", "model=m.onnx", "auto.focal_px=-3"], "auto.focal_px: must be in (0, 1e+06]"),
     (["mode=auto", "video=v.avi", "model=m.onnx", 'localize=["roi.nope=1"]'], "Could not override 'roi.nope'"),
 ])
 def test_calibrate_auto_checks_its_settings_first(overrides: list[str], fragment: str, tmp_path: Path) -> None:
