@@ -19,6 +19,7 @@ __all__, __getattr__ = lazy_api(__name__, {
     "calibration": ["Calibration", "CalibrationError", "CalibrationParams", "calibrate", "camera_from_homography"],
     "camera": ["PinholeCamera"],
     "camera_calibration": ["CameraCalibration", "read_calibration"],
+    "cast_shadow": ["cast_shadow", "fit_cast", "sun_cast"],
     "footprint": ["FootprintLines", "FootprintParams", "detect_footprint"],
     "keypoints": ["DetectorParams", "Placement", "paper_placement"],
     "markers": ["DetectedMarker", "MarkerDetectionParams", "detect_markers"],

@@ -68,8 +68,15 @@ def shape_points_world(shape: VehicleShape, box: VehicleBox) -> np.ndarray:
 
 def silhouette(camera: PinholeCamera, shape: VehicleShape, box: VehicleBox, roi: Box, supersample: int) -> np.ndarray:
     """The shape's silhouette at `box` inside `roi`, as a (roi height, roi width) x `supersample` bool mask."""
+    return filled_parts(camera, shape, shape_points_world(shape, box), roi, supersample)
+
+
+def filled_parts(camera: PinholeCamera, shape: VehicleShape, world_mm: np.ndarray, roi: Box,
+                 supersample: int) -> np.ndarray:
+    """The convex hulls of the shape's parts, their points (`shape.points_mm`) placed at `world_mm`, filled in `roi`
+    on the grid of `silhouette`; empty where a point lies behind the camera."""
     canvas = np.zeros((roi.height_px * supersample, roi.width_px * supersample), np.uint8)
-    pixels = camera.project(shape_points_world(shape, box))
+    pixels = camera.project(world_mm)
     if not np.all(np.isfinite(pixels)):
         return canvas > 0  # part of the vehicle behind the camera: no silhouette to compare
     scaled = np.round(((pixels - [roi.x0, roi.y0] + 0.5) * supersample - 0.5) * (1 << SUBPIXEL_SHIFT)).astype(np.int32)

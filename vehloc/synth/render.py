@@ -251,6 +251,18 @@ def _shadows(
     return shadows
 
 
+def shadow_darkening(camera: PinholeCamera, model: CarModel, pose: CarPose, lighting: Lighting,
+                     strength: float = 0.55) -> np.ndarray:
+    """The share of the road's light the car's shadows take off at each pixel (H, W, in [0, 1]), as `render_car`
+    darkens the road under the same light and `strength`: the truth of where its shadow falls."""
+    darkening = np.zeros((camera.height_px, camera.width_px), np.float32)
+    frame = Box(0, 0, camera.width_px, camera.height_px)
+    for region, weight, shadow in _shadows(camera, model, pose, lighting, strength):
+        cells = darkening[_slices(region, frame)]
+        cells[:] = 1.0 - (1.0 - cells) * (1.0 - weight * shadow)
+    return darkening
+
+
 def _shifted(box: Box | None, region: Box) -> Box | None:
     """A box found inside an array that holds ``region``, in image pixels."""
     if box is None:

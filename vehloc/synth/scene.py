@@ -243,6 +243,11 @@ def draw_cars(
     return image, tuple(boxes)
 
 
+def scene_lighting(spec: SceneSpec) -> Lighting:
+    """The scene's sun, as its frames are lit."""
+    return Lighting.from_angles(spec.light_azimuth_deg, spec.light_elevation_deg, 0.45, 0.6)
+
+
 def render_frames(spec: SceneSpec) -> Iterator[tuple[np.ndarray, tuple[Box | None, ...]]]:
     """Yield every frame of the scene with the box of each car of `spec.cars` (None where it has none).
     The road is drawn once; frames whose cars stand where they stood in the previous frame reuse its
@@ -250,7 +255,7 @@ def render_frames(spec: SceneSpec) -> Iterator[tuple[np.ndarray, tuple[Box | Non
     camera = spec.camera.camera()
     rng = np.random.default_rng(spec.seed)
     background = render_road(camera, spec.layout, rng)
-    lighting = Lighting.from_angles(spec.light_azimuth_deg, spec.light_elevation_deg, 0.45, 0.6)
+    lighting = scene_lighting(spec)
     noise = SensorNoise(spec.noise_sigma, rng)
     drawn_poses: tuple[CarPose | None, ...] | None = None
     for frame in range(spec.frame_count):
