@@ -1,6 +1,6 @@
-"""How far the model fit would get if it knew its vehicle's cast shadow: for each benchmark case the pipeline runs to the
-stopped car's record as the benchmark does, the silhouette it fitted is taken again at that frame, and the fit is run
-from the true pose on that silhouette as extracted and with pixels taken out:
+"""How far the model fit would get if it knew its vehicle's cast shadow: for each benchmark case the pipeline runs to
+the stopped car's record as the benchmark does, the silhouette it fitted is taken again at that frame, and the fit is
+run from the true pose on that silhouette as extracted and with pixels taken out:
 
 - `as_extracted`: nothing taken out (the fit's own error from the true pose);
 - `rendered_shadow_out`: the pixels the renderer darkened by its shadow (`shadow_darkening` above 0.1) outside the
@@ -141,8 +141,8 @@ def main(cfg: DictConfig) -> None:
               flush=True)
     frame = pd.DataFrame(rows)
     table = summary(frame)
-    title = f"The fit from the true pose, {len(frame)} cases ({', '.join(settings.seeds)} seeds from " \
-            f"{', '.join(str(s[0]) for s in settings.seeds.values())})"
+    seeds = ", ".join(f"{split} seeds from {values[0]}" for split, values in settings.seeds.items())
+    title = f"The fit from the true pose, the silhouette altered (pipeline: its own fit), {len(frame)} cases ({seeds})"
     out_dir.mkdir(parents=True, exist_ok=True)
     write_text(out_dir / "cases.csv", frame.to_csv(index=False, float_format="%.3f"))
     write_text(out_dir / "report.md", f"# {title}\n\n{markdown_table(table)}\n")
