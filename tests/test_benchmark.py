@@ -153,13 +153,14 @@ def test_a_bad_setting_is_named_before_any_case_runs(override: str, message: str
         BenchmarkSettings.from_config(composed(override))
 
 
-def test_the_script_refuses_a_bad_setting_in_one_line(tmp_path: Path):
-    script = PROJECT_ROOT / "experiments" / "localization_benchmark" / "run.py"
+@pytest.mark.parametrize(("script_name", "program"), [("run.py", "localization_benchmark"),
+                                                     ("shadow_oracle.py", "shadow_oracle")])
+def test_the_script_refuses_a_bad_setting_in_one_line(tmp_path: Path, script_name: str, program: str):
+    script = PROJECT_ROOT / "experiments" / "localization_benchmark" / script_name
     run = subprocess.run([sys.executable, str(script), "split=train", f"out={tmp_path / 'run'}"],
                          capture_output=True, text=True, timeout=120)
     assert run.returncode == 1
-    assert run.stderr.strip().splitlines() == [
-        "localization_benchmark: error: split: must be dev, heldout or both, got 'train'"]
+    assert run.stderr.strip().splitlines() == [f"{program}: error: split: must be dev, heldout or both, got 'train'"]
     assert not (tmp_path / "run" / "cases.csv").exists()
 
 
