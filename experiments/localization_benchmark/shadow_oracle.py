@@ -32,7 +32,7 @@ from omegaconf import DictConfig, OmegaConf
 from vehloc.atomic import atomic_path, write_text
 from vehloc.benchmark.cases import BenchmarkCase
 from vehloc.benchmark.oracle import TrueModelClassifier
-from vehloc.benchmark.runner import FIT_HEADING_DEG, FIT_POSITION_PCT, exact_calibration, localize_stopped_car, true_box
+from vehloc.benchmark.runner import errors, exact_calibration, localize_stopped_car, true_box
 from vehloc.benchmark.suite import BenchmarkSettings, drawn_cases
 from vehloc.config import config_dir
 from vehloc.errors import exit_on_error
@@ -40,7 +40,6 @@ from vehloc.geometry.cast_shadow import cast_shadow, fit_cast
 from vehloc.geometry.model_fit import fit_model, silhouette
 from vehloc.geometry.pipeline.localize import Localizer
 from vehloc.geometry.pipeline.table2 import pose_error
-from vehloc.geometry.placement import VehicleBox
 from vehloc.synth.catalog import model_by_id
 from vehloc.synth.render import shadow_darkening
 from vehloc.synth.scene import scene_lighting
@@ -70,7 +69,7 @@ def case_errors(case: BenchmarkCase, settings: BenchmarkSettings) -> dict[str, o
     if fit is None:
         return row | {"status": "no fit at the stop"}
     truth, camera = true_box(case), calibration.camera
-    row |= {"status": "fitted", **_errors("pipeline", fit.box, truth)}
+    row |= {"status": "fitted", **errors("pipeline", fit.box, truth)}
     height_px, width_px = run.frame_bgr.shape[:2]
     roi = record.box_px.enlarged(localizer.params.detector_roi_fraction, width_px, height_px)
     weights = localizer.extractor.foreground(roi, record.box_px).weights
@@ -90,18 +89,11 @@ def case_errors(case: BenchmarkCase, settings: BenchmarkSettings) -> dict[str, o
     }
     for name, foreground in foregrounds.items():
         refit = fit_model(camera, foreground, roi, shape, truth, localizer.fit_params)
-        row |= _errors(name, refit.box, truth)
+        row |= errors(name, refit.box, truth)
     extra = (weights > 0) & ~car
     return row | {"cast_x": float(cast[0]), "cast_y": float(cast[1]), "extra_px": int(extra.sum()),
                   "extra_in_rendered_shadow_px": int((extra & (rendered > SHADOW_DARKENING)).sum()),
                   "car_px": int(car.sum())}
-
-
-def _errors(name: str, box: VehicleBox, truth: VehicleBox) -> dict[str, object]:
-    error = pose_error(box, truth)
-    within = error.position_pct <= FIT_POSITION_PCT and abs(error.heading_deg) <= FIT_HEADING_DEG
-    return {f"{name}_position_pct": error.position_pct, f"{name}_heading_deg": abs(error.heading_deg),
-            f"{name}_within": within}
 
 
 def summary(frame: pd.DataFrame) -> pd.DataFrame:
