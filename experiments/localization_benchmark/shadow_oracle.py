@@ -39,7 +39,6 @@ from vehloc.errors import exit_on_error
 from vehloc.geometry.cast_shadow import cast_shadow, fit_cast
 from vehloc.geometry.model_fit import fit_model, silhouette
 from vehloc.geometry.pipeline.localize import Localizer
-from vehloc.geometry.pipeline.table2 import pose_error
 from vehloc.synth.catalog import model_by_id
 from vehloc.synth.render import shadow_darkening
 from vehloc.synth.scene import scene_lighting
