@@ -9,7 +9,11 @@ run from the true pose on that silhouette as extracted and with pixels taken out
   silhouette's doubtful pixels at the true pose) outside the true car's silhouette;
 - `doubtful_out_beside`: the silhouette's doubtful pixels (weight below 1) outside the true car's silhouette;
 - `doubtful_out`: the doubtful pixels everywhere (what a fit that cannot tell the shadow from the car can do);
-- `true_silhouette`: the true car's silhouette itself (the pixel grid's own limit).
+- `true_silhouette`: the true car's silhouette itself (the pixel grid's own limit);
+- with the rendered shadow beside the car out, and one more thing put right (what holds the fit back once the shadow
+  is known): `shadow_out_car_doubt_full` the car's doubtful pixels weighing 1; `shadow_out_lost_back` the car's pixels
+  the silhouette lost put back at 1; `shadow_out_car_full` both; `shadow_out_others_out` the other pixels outside the
+  car (not its shadow) taken out.
 
     python experiments/localization_benchmark/shadow_oracle.py split=dev cases=20 out=runs/shadow_oracle
 
@@ -50,7 +54,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 SHADOW_DARKENING = 0.1
 """A pixel is in the rendered shadow where the shadow takes off more than this share of the road's light."""
 VARIANTS = ("as_extracted", "rendered_shadow_out", "cast_shadow_out", "doubtful_out_beside", "doubtful_out",
-            "true_silhouette")
+            "true_silhouette", "shadow_out_car_doubt_full", "shadow_out_lost_back", "shadow_out_car_full",
+            "shadow_out_others_out")
 
 
 def case_errors(case: BenchmarkCase, settings: BenchmarkSettings) -> dict[str, object]:
@@ -78,21 +83,27 @@ def case_errors(case: BenchmarkCase, settings: BenchmarkSettings) -> dict[str, o
     doubtful = (weights > 0) & (weights < 1)
     cast = fit_cast(camera, shape, truth, roi, doubtful, 1)
     modelled = cast_shadow(camera, shape, truth, cast, roi, 1)
+    in_shadow = rendered > SHADOW_DARKENING
+    shadow_out = np.where(in_shadow & ~car, 0.0, weights)
     foregrounds = {
         "as_extracted": weights,
-        "rendered_shadow_out": np.where((rendered > SHADOW_DARKENING) & ~car, 0.0, weights),
+        "rendered_shadow_out": shadow_out,
         "cast_shadow_out": np.where(modelled & ~car, 0.0, weights),
         "doubtful_out_beside": np.where(doubtful & ~car, 0.0, weights),
         "doubtful_out": np.where(doubtful, 0.0, weights),
         "true_silhouette": car.astype(np.float32),
+        "shadow_out_car_doubt_full": np.where(car & (shadow_out > 0), 1.0, shadow_out),
+        "shadow_out_lost_back": np.where(car & (shadow_out == 0), 1.0, shadow_out),
+        "shadow_out_car_full": np.where(car, 1.0, shadow_out),
+        "shadow_out_others_out": np.where(~car & ~in_shadow, 0.0, shadow_out),
     }
     for name, foreground in foregrounds.items():
         refit = fit_model(camera, foreground, roi, shape, truth, localizer.fit_params)
         row |= errors(name, refit.box, truth)
     extra = (weights > 0) & ~car
     return row | {"cast_x": float(cast[0]), "cast_y": float(cast[1]), "extra_px": int(extra.sum()),
-                  "extra_in_rendered_shadow_px": int((extra & (rendered > SHADOW_DARKENING)).sum()),
-                  "car_px": int(car.sum())}
+                  "extra_in_rendered_shadow_px": int((extra & in_shadow).sum()), "car_px": int(car.sum()),
+                  "car_lost_px": int((car & (weights == 0)).sum()), "car_doubtful_px": int((car & doubtful).sum())}
 
 
 def summary(frame: pd.DataFrame) -> pd.DataFrame:
