@@ -26,7 +26,9 @@ from vehloc.geometry.brno import vanishing_point_px
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.model_fit import shape_points_world
 from vehloc.geometry.placement import VehicleBox
-from vehloc.geometry.traffic_evidence import FeatureParams, FeatureTracks
+from vehloc.data.boxes import Box
+from vehloc.geometry.roi import Silhouette
+from vehloc.geometry.traffic_evidence import FeatureParams, FeatureTracks, sure_outline
 from vehloc.geometry.outcome import FailedEstimate
 from vehloc.geometry.vanishing import Segments, VanishingPoint, find_vanishing_point
 
@@ -272,3 +274,21 @@ def test_the_scale_sigma_of_a_calibration_file_reaches_the_speeds_sigma(tmp_path
     (tmp_path / "calibration.json").write_text(json.dumps(content))
     with pytest.raises(CalibrationError, match="scale_sigma_fraction must be a finite number >= 0"):
         read_calibration(tmp_path / "calibration.json")
+
+
+@pytest.mark.parametrize("doubt_weight", [0.5, 1.0])
+def test_a_sure_outline_leaves_out_the_grainy_doubtful_pixels_whatever_they_weigh(doubt_weight: float):
+    """The vehicle rows 10-29, columns 20-59 of an ROI at (100, 200); a grainy doubtful patch (a cast shadow) below it
+    (rows 30-35) and to its right (columns 60-69), and a smooth doubtful face (solid) on its top rows 10-12: the
+    outline is the vehicle's and its solid face, each extreme moved 0.5 px in, whatever the fit weighs the doubtful
+    pixels."""
+    mask = np.zeros((50, 80), bool)
+    mask[10:36, 20:70] = True
+    doubtful = np.zeros_like(mask)
+    doubtful[30:36, 20:70] = doubtful[10:36, 60:70] = doubtful[10:13, 20:60] = True
+    solid = mask & ~doubtful
+    solid[10:13, 20:60] = True
+    weights = np.where(mask, np.where(doubtful, doubt_weight, 1.0), 0.0)
+    outline = sure_outline(Silhouette(mask, weights, doubtful, solid, 0), Box(100, 200, 180, 250), 0.5)
+    np.testing.assert_array_equal(outline.sides_px, [200 + 10 + 0.5, 100 + 20 + 0.5, 100 + 59 - 0.5])
+    assert outline.bottom_px == 200 + 29 - 0.5

@@ -162,13 +162,15 @@ def clean_mask(mask: np.ndarray, params: RoiParams) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class Silhouette:
-    """A vehicle's pixels in an ROI (bool mask), how sure each is (1, or `silhouette_doubt_weight` where the
-    pixel is only darker than the road, of its chromaticity, and may be shadow the texture test could not tell;
-    `silhouette_shade_weight` where such pixels are not solid and reach the outline), and which are
-    solid: sure, or darker but smooth where the road has texture (a body face, not a shadow on the road)."""
+    """A vehicle's pixels in an ROI (bool mask), how much each weighs in the fit (1, or `silhouette_doubt_weight`
+    where the pixel is doubtful; `silhouette_shade_weight` where such pixels are not solid and reach the outline),
+    which are doubtful (only darker than the road, of its chromaticity: maybe shadow the texture test could not tell)
+    and which are solid: sure, or darker but smooth where the road has texture (a body face, not a shadow on the
+    road)."""
 
     mask: np.ndarray
     weights: np.ndarray
+    doubtful: np.ndarray
     solid: np.ndarray
     margin_px: int
 
@@ -234,7 +236,7 @@ def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: 
     if params.silhouette_shade_weight != doubt_weight:  # the outline's patches only where they weigh otherwise
         shade = at_outline(vehicle & doubtful & ~solid, vehicle)
         doubt_weight = np.where(shade, params.silhouette_shade_weight, doubt_weight)
-    return Silhouette(vehicle, np.where(vehicle, np.where(doubtful, doubt_weight, 1.0), 0.0),
+    return Silhouette(vehicle, np.where(vehicle, np.where(doubtful, doubt_weight, 1.0), 0.0), vehicle & doubtful,
                       solid, window // 2)
 
 

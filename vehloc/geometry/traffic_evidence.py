@@ -160,7 +160,7 @@ class Outline:
 def sure_outline(silhouette: Silhouette, roi: Box, inset_px: float) -> Outline | None:
     """The extremes of the silhouette's sure pixels (not doubtful, or solid: no cast shadow) in frame pixels, each moved
     `inset_px` in (a pixel the vehicle covers in part is changed too); None when it has none."""
-    sure = silhouette.mask & ((silhouette.weights >= 1.0) | silhouette.solid)
+    sure = silhouette.mask & (~silhouette.doubtful | silhouette.solid)
     rows, columns = np.nonzero(sure)
     if len(rows) == 0:
         return None
