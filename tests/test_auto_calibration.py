@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from bad_input import assert_one_error, run_cli, write_handmade_onnx
 
+from vehloc.data.boxes import Box
 from vehloc.data.shapes import VehicleShape
 from vehloc.geometry.auto_calibration import (
     box_sides_px,
@@ -26,7 +27,6 @@ from vehloc.geometry.brno import vanishing_point_px
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.model_fit import shape_points_world
 from vehloc.geometry.placement import VehicleBox
-from vehloc.data.boxes import Box
 from vehloc.geometry.roi import Silhouette
 from vehloc.geometry.traffic_evidence import FeatureParams, FeatureTracks, sure_outline
 from vehloc.geometry.outcome import FailedEstimate
