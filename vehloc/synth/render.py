@@ -196,6 +196,8 @@ def _face_colours(
 CAR_PAD_PX = 2
 """Margin around the car's projected vertices that its supersampled layer covers (the fill and the area
 average reach at most a pixel past them)."""
+SHADOW_STRENGTH = 0.55
+"""How much of the road's light a car's cast shadow takes off at its darkest (its core region's weight)."""
 
 
 def _pixel_bounds(points_px: np.ndarray, pad_px: int, width_px: int, height_px: int) -> Box:
@@ -252,7 +254,7 @@ def _shadows(
 
 
 def shadow_darkening(camera: PinholeCamera, model: CarModel, pose: CarPose, lighting: Lighting,
-                     strength: float = 0.55) -> np.ndarray:
+                     strength: float = SHADOW_STRENGTH) -> np.ndarray:
     """The share of the road's light the car's shadows take off at each pixel (H, W, in [0, 1]), as `render_car`
     darkens the road under the same light and `strength`: the truth of where its shadow falls."""
     darkening = np.zeros((camera.height_px, camera.width_px), np.float32)
@@ -335,7 +337,7 @@ def render_car(
     camera: PinholeCamera,
     background_bgr: np.ndarray,
     lighting: Lighting = Lighting(),
-    shadow_strength: float = 0.55,
+    shadow_strength: float = SHADOW_STRENGTH,
     supersample: int = 3,
     plates: bool = True,
 ) -> CarRender:
