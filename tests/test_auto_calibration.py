@@ -289,6 +289,6 @@ def test_a_sure_outline_leaves_out_the_grainy_doubtful_pixels_whatever_they_weig
     solid = mask & ~doubtful
     solid[10:13, 20:60] = True
     weights = np.where(mask, np.where(doubtful, doubt_weight, 1.0), 0.0)
-    outline = sure_outline(Silhouette(mask, weights, doubtful, solid, 0), Box(100, 200, 180, 250), 0.5)
+    outline = sure_outline(Silhouette(mask, weights, doubtful, solid, np.ones(mask.shape, np.float32), 0), Box(100, 200, 180, 250), 0.5)
     np.testing.assert_array_equal(outline.sides_px, [200 + 10 + 0.5, 100 + 20 + 0.5, 100 + 59 - 0.5])
     assert outline.bottom_px == 200 + 29 - 0.5

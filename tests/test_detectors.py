@@ -65,7 +65,8 @@ def placement_of(case, car: tuple[int, int], params: DetectorParams, visible_end
     height_px, width_px = case.mask.shape
     roi = Box(int(case.offset_px[0]), int(case.offset_px[1]), int(case.offset_px[0]) + width_px,
               int(case.offset_px[1]) + height_px)
-    silhouette = Silhouette(case.mask, case.mask.astype(np.float32), np.zeros_like(case.mask), case.mask, 0)
+    silhouette = Silhouette(case.mask, case.mask.astype(np.float32), np.zeros_like(case.mask), case.mask,
+                            np.ones(case.mask.shape, np.float32), 0)
     spec = next(spec for spec in vehicle_specs() if spec.model_id == car[0])
     return paper_placement(case.roi_bgr, silhouette, roi, calibration, spec, catalog_shapes()[car[0]], params,
                            visible_end)

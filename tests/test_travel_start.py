@@ -206,7 +206,7 @@ class _EmptyForeground(_ScriptedExtractor):
 
     def foreground(self, roi: Box, body: Box | None = None) -> Silhouette:
         empty = np.zeros((roi.height_px, roi.width_px), bool)
-        return Silhouette(empty, empty.astype(np.float32), empty, empty, 0)
+        return Silhouette(empty, empty.astype(np.float32), empty, empty, np.ones(empty.shape, np.float32), 0)
 
 
 def records_of_a_far_car(bottoms_px: np.ndarray, params: PipelineParams,

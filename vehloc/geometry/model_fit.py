@@ -24,6 +24,10 @@ MAX_SUPERSAMPLE = 8
 """The finest silhouette comparison: 8x the image's resolution (64 times its pixels) per evaluation."""
 MAX_EVALUATIONS = 10_000
 """The most silhouette evaluations one fit may take (one is about half a millisecond to a few)."""
+MAX_SHADOW_PASSES = 5
+"""The most rounds of fitting the road's shadow and refitting the vehicle without it."""
+MIN_SHADOW_GRID_PX, MAX_SHADOW_GRID_PX = 16, 1024
+"""The coarsest and finest grid (its longer side) the road's shadow is fitted on."""
 
 
 @dataclass(frozen=True)
@@ -37,12 +41,22 @@ class FitParams:
     tolerance_deg: float
     max_evaluations: int
     try_reversed: bool
+    shadow_passes: int
+    shadow_ratio_tolerance: float
+    shadow_min_darkening: float
+    shadow_grid_px: int
+    shadow_max_evaluations: int
 
     def __post_init__(self) -> None:
         check_range("supersample", self.supersample, 1, MAX_SUPERSAMPLE)
         for name in ("start_step_mm", "start_step_deg", "tolerance_mm", "tolerance_deg"):
             check_range(name, getattr(self, name), 0.0, low_open=True)
         check_range("max_evaluations", self.max_evaluations, 1, MAX_EVALUATIONS)
+        check_range("shadow_passes", self.shadow_passes, 0, MAX_SHADOW_PASSES)
+        check_range("shadow_ratio_tolerance", self.shadow_ratio_tolerance, 0.0, 1.0, low_open=True)
+        check_range("shadow_min_darkening", self.shadow_min_darkening, 0.0, 1.0, low_open=True)
+        check_range("shadow_grid_px", self.shadow_grid_px, MIN_SHADOW_GRID_PX, MAX_SHADOW_GRID_PX)
+        check_range("shadow_max_evaluations", self.shadow_max_evaluations, 1, MAX_EVALUATIONS)
 
     @classmethod
     def from_config(cls, **overrides: object) -> FitParams:

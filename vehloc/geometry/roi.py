@@ -166,12 +166,14 @@ class Silhouette:
     where the pixel is doubtful; `silhouette_shade_weight` where such pixels are not solid and reach the outline),
     which are doubtful (only darker than the road, of its chromaticity: maybe shadow the texture test could not tell)
     and which are solid: sure, or darker but smooth where the road has texture (a body face, not a shadow on the
-    road)."""
+    road); and every pixel's light ratio (the frame's sum of channels over the background's), for a model of the
+    shadow (`vehloc.geometry.road_shadow`)."""
 
     mask: np.ndarray
     weights: np.ndarray
     doubtful: np.ndarray
     solid: np.ndarray
+    light_ratio: np.ndarray
     margin_px: int
 
     def trimmed(self) -> np.ndarray:
@@ -237,7 +239,7 @@ def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: 
         shade = at_outline(vehicle & doubtful & ~solid, vehicle)
         doubt_weight = np.where(shade, params.silhouette_shade_weight, doubt_weight)
     return Silhouette(vehicle, np.where(vehicle, np.where(doubtful, doubt_weight, 1.0), 0.0), vehicle & doubtful,
-                      solid, window // 2)
+                      solid, ratio, window // 2)
 
 
 def vehicle_parts(contours: Sequence[np.ndarray], body: Box | None, min_part_fraction: float) -> list[np.ndarray]:

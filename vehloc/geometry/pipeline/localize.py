@@ -29,10 +29,11 @@ from vehloc.data.specs import VehicleSpec
 from vehloc.errors import VehlocError
 from vehloc.geometry.keypoints import Placement, paper_placement
 from vehloc.geometry.model_fit import best_start, fit_model
+from vehloc.geometry.road_shadow import refit_without_shadow
 from vehloc.geometry.motion import PathHeading
 from vehloc.geometry.placement import VehicleBox, axis_difference_deg, between_axles, direction_of, facing
 from vehloc.geometry.outcome import NotPlaced, ReasonCode
-from vehloc.geometry.roi import VehicleRoiExtractor
+from vehloc.geometry.roi import Silhouette, VehicleRoiExtractor
 from vehloc.geometry.silhouette_start import silhouette_start_headings_deg
 from vehloc.geometry.camera_calibration import CameraCalibration
 from vehloc.geometry.pipeline.timing import StageClock
@@ -277,7 +278,7 @@ class Localizer:
                                reason=placement.message, notes="")
             with self.clock.stage("model fit"):
                 starts = [self._start_box(track, spec, heading, kind, silhouette.weights, roi) for heading in headings]
-                fit = self._fit(starts, silhouette.weights, roi, probabilities, came, motion, kind)
+                fit = self._fit(starts, silhouette, roi, probabilities, came, motion, kind)
             if fit.iou < self.params.min_fit_iou:
                 return replace(record, status=Status.NOT_LOCALIZED, reason_code=ReasonCode.POOR_FIT,
                                reason=joined(placement.message, poor_fit(fit)), notes="")
@@ -288,7 +289,7 @@ class Localizer:
                                                                                          probabilities, placement.baseline_mm))]
         if self.params.fit:
             with self.clock.stage("model fit"):
-                fit = self._fit([paper_box], silhouette.weights, roi, probabilities, came, motion)
+                fit = self._fit([paper_box], silhouette, roi, probabilities, came, motion)
             if fit.iou >= self.params.min_fit_iou:
                 estimates.append(fit)
             else:
@@ -315,13 +316,14 @@ class Localizer:
         spread = dimension_spread_mm(probabilities, self.classifier.metadata.dims_mm, self.params.uncertainty_top_k)
         return Uncertainty.combined(paper_dimension_part(kind, spread), self._calibration_part(box, baseline_mm))
 
-    def _fit(self, starts: list[VehicleBox], weights: np.ndarray, roi: Box, probabilities: np.ndarray,
+    def _fit(self, starts: list[VehicleBox], silhouette: Silhouette, roi: Box, probabilities: np.ndarray,
              came_deg: float | None, motion: PathHeading | None, start_kind: str = "key points") -> Estimate:
-        """The predicted model's shape fitted from each of `starts` (the paper's placement, or the starts without
-        key points), the best overlap kept, facing the way a stopped vehicle came when its track travelled far
-        enough to tell (else both ways tried, the better overlap kept), its heading held at the path's when the
-        vehicle moves; its uncertainty from refitting the other probable models' shapes from the kept start, and
-        the path heading's own."""
+        """The predicted model's shape fitted to the silhouette's weights from each of `starts` (the paper's
+        placement, or the starts without key points), the best overlap kept, facing the way a stopped vehicle came
+        when its track travelled far enough to tell (else both ways tried, the better overlap kept), its heading held
+        at the path's when the vehicle moves; a vehicle without a path heading then refitted without the road's
+        shadow around it (`fit.shadow_passes`, `refit_without_shadow`); its uncertainty from refitting the other
+        probable models' shapes from the kept start to the same weights, and the path heading's own."""
         camera, metadata = self.calibration.camera, self.classifier.metadata
         order = np.argsort(-probabilities, kind="stable")[: self.params.uncertainty_top_k]
         candidates = [i for i in order if i == order[0] or probabilities[i] >= self.params.uncertainty_min_probability]
@@ -334,10 +336,14 @@ class Localizer:
 
         predicted = metadata.classes[candidates[0]]
         params = self.fit_params if stopped_came_from is None else replace(self.fit_params, try_reversed=False)
-        tried = [(fit_model(camera, weights, roi, metadata.shape_of(predicted.model_id),
-                            begin_at(start, predicted, stopped_came_from), params, fit_heading=motion is None), start)
+        shape = metadata.shape_of(predicted.model_id)
+        tried = [(fit_model(camera, silhouette.weights, roi, shape, begin_at(start, predicted, stopped_came_from),
+                            params, fit_heading=motion is None), start)
                  for start in starts]  # a stopped vehicle faces the way it came: only that is fitted
         first, start = max(tried, key=lambda pair: pair[0].iou)
+        weights = silhouette.weights
+        if motion is None:  # a moving vehicle's heading is its path's, and its records many: no shadow refit
+            first, weights = refit_without_shadow(camera, silhouette, roi, shape, first, params)
         fits = [first] + [  # the other models start facing the way the predicted one was fitted: front and rear are settled
             fit_model(camera, weights, roi, metadata.shape_of(spec.model_id), begin_at(start, spec, first.box.heading_deg),
                       replace(self.fit_params, try_reversed=False), fit_heading=motion is None)
