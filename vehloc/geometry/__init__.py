@@ -1,8 +1,8 @@
 """The geometry of monocular vehicle localization, as maths on arrays: the projective transform of the road
 plane, the pinhole camera, calibration from lane markers, the background model's vehicle boxes and
 silhouettes, the detectors of the paper's key points (footprint lines, plate, wheels), the box's placement on
-the road, the model fit and the shadow a shape casts, a vehicle's path on the road, its reference point from its box
-and model, its speed, the speed benchmark's camera model, the estimates' uncertainty, and a camera from its traffic
+the road, the model fit, the shadow a shape casts and the shadow beside a vehicle told from it by the road's
+light, a vehicle's path on the road, its reference point from its box and model, its speed, the speed benchmark's camera model, the estimates' uncertainty, and a camera from its traffic
 (vanishing points from segments, the camera from two of them, its height from a vehicle's box and shape).
 
 It imports no classifier and writes no file: the pipeline above it (`vehloc.geometry.pipeline`) runs it over
@@ -29,6 +29,7 @@ __all__, __getattr__ = lazy_api(__name__, {
     "placement": ["VehicleBox", "direction_of", "facing", "heading_of"],
     "plate": ["Plate", "PlateParams", "detect_plate", "plate_candidates"],
     "projective": ["HorizonError", "ProjectiveTransform"],
+    "road_shadow": ["RoadShadow", "fit_road_shadow", "refit_without_shadow"],
     "roi": ["RoiParams", "Silhouette", "VehicleRoiExtractor", "vehicle_silhouette"],
     "silhouette_start": ["silhouette_start_headings_deg"],
     "site": ["Site", "SiteError", "read_site", "site_yaml"],
