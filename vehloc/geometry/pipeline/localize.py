@@ -29,10 +29,10 @@ from vehloc.data.specs import VehicleSpec
 from vehloc.errors import VehlocError
 from vehloc.geometry.keypoints import Placement, paper_placement
 from vehloc.geometry.model_fit import best_start, fit_model
-from vehloc.geometry.road_shadow import refit_without_shadow
 from vehloc.geometry.motion import PathHeading
 from vehloc.geometry.placement import VehicleBox, axis_difference_deg, between_axles, direction_of, facing
 from vehloc.geometry.outcome import NotPlaced, ReasonCode
+from vehloc.geometry.road_shadow import refit_without_shadow
 from vehloc.geometry.roi import Silhouette, VehicleRoiExtractor
 from vehloc.geometry.silhouette_start import silhouette_start_headings_deg
 from vehloc.geometry.camera_calibration import CameraCalibration
