@@ -7,7 +7,7 @@ run from the true pose on that silhouette as extracted and with pixels taken out
   true car's silhouette (the oracle);
 - `cast_shadow_out`: the shadow the car's shape casts (`cast_shadow`, its cast fitted by `fit_cast` to the
   silhouette's doubtful pixels at the true pose) outside the true car's silhouette;
-- `doubtful_out_beside`: the silhouette's doubtful pixels (weight below 1) outside the true car's silhouette;
+- `doubtful_out_beside`: the silhouette's doubtful pixels (`Silhouette.doubtful`) outside the true car's silhouette;
 - `doubtful_out`: the doubtful pixels everywhere (what a fit that cannot tell the shadow from the car can do);
 - `true_silhouette`: the true car's silhouette itself (the pixel grid's own limit);
 - with the rendered shadow beside the car out, and one more thing put right (what holds the fit back once the shadow
@@ -76,11 +76,11 @@ def case_errors(case: BenchmarkCase, settings: BenchmarkSettings) -> dict[str, o
     row |= {"status": "fitted", **errors("pipeline", fit.box, truth)}
     height_px, width_px = run.frame_bgr.shape[:2]
     roi = record.box_px.enlarged(localizer.params.detector_roi_fraction, width_px, height_px)
-    weights = localizer.extractor.foreground(roi, record.box_px).weights
+    extracted = localizer.extractor.foreground(roi, record.box_px)
+    weights, doubtful = extracted.weights, extracted.doubtful
     shape = localizer.classifier.metadata.shape_of(case.model_id)
     car = silhouette(camera, shape, truth, roi, 1)
     rendered = roi.crop(shadow_darkening(camera, model_by_id(case.model_id), case.pose, scene_lighting(spec)))
-    doubtful = (weights > 0) & (weights < 1)
     cast = fit_cast(camera, shape, truth, roi, doubtful, 1)
     modelled = cast_shadow(camera, shape, truth, cast, roi, 1)
     in_shadow = rendered > SHADOW_DARKENING

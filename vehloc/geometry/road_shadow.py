@@ -128,7 +128,6 @@ def refit_without_shadow(camera: PinholeCamera, silhouette: Silhouette, roi: Box
         shadowed = shadow_pixels(ratio, darkening(camera, fit.box, roi, shadow), params.shadow_ratio_tolerance,
                                  params.shadow_min_darkening)
         weights = np.where(silhouette.doubtful & shadowed, 0.0, silhouette.weights)
-        evaluations = fit.evaluations
-        fit = fit_model(camera, weights, roi, shape, fit.box, refit_params)
-        fit = replace(fit, evaluations=fit.evaluations + evaluations)
+        refit = fit_model(camera, weights, roi, shape, fit.box, refit_params)
+        fit = replace(refit, evaluations=fit.evaluations + refit.evaluations)
     return fit, weights
