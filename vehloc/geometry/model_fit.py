@@ -1,8 +1,9 @@
 """The model fit, beyond the paper: with the full camera (K, R, t) from the calibration and the predicted
 model's shape (its convex parts, or the cuboid of its length, width and height), find the pose (x, y,
 heading) whose projected silhouette best overlaps the vehicle's foreground. Starts from the paper's
-placement; the overlap is a weighted intersection over union (foreground pixels that may be shadow count
-less), measured on a supersampled grid so that it varies smoothly enough for Nelder-Mead."""
+placement; the overlap compares how much of each pixel the shape covers (drawn on a supersampled grid, so
+that it varies smoothly enough for Nelder-Mead) with how much the vehicle weighs there (less where a pixel
+may be shadow, the share the vehicle covers along its outline)."""
 
 from __future__ import annotations
 
@@ -99,21 +100,21 @@ def filled_parts(camera: PinholeCamera, shape: VehicleShape, world_mm: np.ndarra
     return canvas.view(bool)
 
 
-def overlap(template: np.ndarray, weights: np.ndarray, weights_total: float | None = None) -> float:
-    """Weighted intersection over union of a bool template and float32 foreground weights in [0, 1]: the
-    weight the template covers over the template's area plus the weight it leaves out (plain IoU for a bool
-    mask); `weights_total`, the weights' sum, when the caller has it already."""
-    inside = template.view(np.uint8)
-    covered = float(np.dot(weights.ravel(), inside.ravel().astype(np.float32)))
-    total = float(weights.sum()) if weights_total is None else weights_total
-    union = cv2.countNonZero(inside) + total - covered
-    return covered / union if union else 0.0
+def coverage(camera: PinholeCamera, shape: VehicleShape, box: VehicleBox, roi: Box, supersample: int) -> np.ndarray:
+    """How much of each pixel of `roi` the shape at `box` covers (float32 in [0, 1], in steps of 1 / supersample²)."""
+    drawn = silhouette(camera, shape, box, roi, supersample).astype(np.float32)
+    if supersample == 1:
+        return drawn
+    return cv2.resize(drawn, (roi.width_px, roi.height_px), interpolation=cv2.INTER_AREA)
 
 
-def supersampled(weights: np.ndarray, roi: Box, supersample: int) -> np.ndarray:
-    """The foreground weights of `roi` on the grid the silhouettes are compared on (float32)."""
-    return cv2.resize(np.asarray(weights, dtype=np.float32), (roi.width_px * supersample, roi.height_px * supersample),
-                      interpolation=cv2.INTER_NEAREST)
+def overlap(covered: np.ndarray, weights: np.ndarray) -> float:
+    """How well a shape's pixel coverage matches the foreground's weights (both in [0, 1]): the sum of their
+    pixel-wise minimum over that of their maximum (for a bool mask and bool weights, the intersection over union;
+    for a fractional weight, best where the shape covers that share of the pixel)."""
+    weights = np.asarray(weights, dtype=np.float32)
+    union = float(np.maximum(covered, weights).sum())
+    return float(np.minimum(covered, weights).sum()) / union if union else 0.0
 
 
 def fit_model(
@@ -132,8 +133,7 @@ def fit_model(
     from scipy.optimize import minimize  # scipy on first use: a refused CLI answers sooner
     params = params or FitParams.from_config()
     ss = params.supersample
-    target = supersampled(weights, roi, ss)
-    target_total = float(target.sum())
+    target = np.asarray(weights, dtype=np.float32)
 
     # Nelder-Mead stops on one tolerance for all coordinates: the heading is scaled to make it the angular one
     per_deg = params.tolerance_mm / params.tolerance_deg
@@ -143,7 +143,7 @@ def fit_model(
         return VehicleBox(values[:2].copy(), turned_deg, start.length_mm, start.width_mm)
 
     def cost(values: np.ndarray, heading_deg: float) -> float:
-        return 1.0 - overlap(silhouette(camera, shape, box_of(values, heading_deg), roi, ss), target, target_total)
+        return 1.0 - overlap(coverage(camera, shape, box_of(values, heading_deg), roi, ss), target)
 
     headings = [start.heading_deg] + ([heading_difference_deg(start.heading_deg + 180.0, 0.0)] if params.try_reversed else [])
     coordinates = 3 if fit_heading else 2
@@ -165,7 +165,6 @@ def best_start(camera: PinholeCamera, weights: np.ndarray, roi: Box, shape: Vehi
                candidates: list[VehicleBox], supersample: int) -> VehicleBox:
     """Of the candidate starts, the one whose silhouette overlaps the foreground `weights` (as in `fit_model`)
     most: a coarse search before the fit, for a start far from the vehicle."""
-    target = supersampled(weights, roi, supersample)
-    total = float(target.sum())
-    scores = [overlap(silhouette(camera, shape, box, roi, supersample), target, total) for box in candidates]
+    target = np.asarray(weights, dtype=np.float32)
+    scores = [overlap(coverage(camera, shape, box, roi, supersample), target) for box in candidates]
     return candidates[int(np.argmax(scores))]

@@ -17,6 +17,7 @@ import numpy as np
 
 from vehloc.config import check_interval, check_range, params_from_config
 from vehloc.data.boxes import Box
+from vehloc.geometry.edge_coverage import edge_coverage
 
 MOG2_SHADOW_VALUE = 127
 MOG2_FOREGROUND_VALUE = 255
@@ -59,6 +60,8 @@ class RoiParams:
     silhouette_smooth_ratio: float
     silhouette_min_solid_px: int
     silhouette_min_part_fraction: float
+    silhouette_edge_band_px: int
+    silhouette_edge_min_contrast: float
     min_changed_fraction: float
 
     def __post_init__(self) -> None:
@@ -85,6 +88,8 @@ class RoiParams:
         check_range("silhouette_smooth_ratio", self.silhouette_smooth_ratio, 0.0)
         check_range("min_changed_fraction", self.min_changed_fraction, 0.0, 1.0)
         check_range("silhouette_min_part_fraction", self.silhouette_min_part_fraction, 0.0, 1.0)
+        check_range("silhouette_edge_band_px", self.silhouette_edge_band_px, 0, MAX_KERNEL_PX)
+        check_range("silhouette_edge_min_contrast", self.silhouette_edge_min_contrast, 0.0, 255.0 * 3 ** 0.5)
 
     @classmethod
     def from_config(cls, **overrides: object) -> RoiParams:
@@ -203,7 +208,9 @@ def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: 
     the vehicle, more likely than a part of it). Darker pixels
     are solid where their texture is below `silhouette_smooth_ratio` of the road's there (darkened alike): a smooth
     body face, unless they form a speck of fewer than `silhouette_min_solid_px` pixels (a deep shadow's compressed
-    texture can look smooth here and there)."""
+    texture can look smooth here and there). Within `silhouette_edge_band_px` of the outline (inside and out) a pixel
+    weighs the share of it the vehicle covers, where its colour tells (`edge_coverage`): the threshold's in or out
+    moves the outline by up to half a pixel."""
     frame = roi_bgr.astype(np.float32)
     background = background_bgr.astype(np.float32)
     changed = np.abs(frame - background).max(axis=2) > params.silhouette_threshold
@@ -238,8 +245,12 @@ def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: 
     if params.silhouette_shade_weight != doubt_weight:  # the outline's patches only where they weigh otherwise
         shade = at_outline(vehicle & doubtful & ~solid, vehicle)
         doubt_weight = np.where(shade, params.silhouette_shade_weight, doubt_weight)
-    return Silhouette(vehicle, np.where(vehicle, np.where(doubtful, doubt_weight, 1.0), 0.0), vehicle & doubtful,
-                      solid, ratio, window // 2)
+    weights = np.where(vehicle, np.where(doubtful, doubt_weight, 1.0), 0.0)
+    if params.silhouette_edge_band_px:
+        share, known = edge_coverage(roi_bgr, background_bgr, vehicle, doubtful, params.silhouette_edge_band_px,
+                                     params.silhouette_edge_min_contrast)
+        weights = np.where(known, share, weights)
+    return Silhouette(vehicle, weights, vehicle & doubtful, solid, ratio, window // 2)
 
 
 def vehicle_parts(contours: Sequence[np.ndarray], body: Box | None, min_part_fraction: float) -> list[np.ndarray]:
