@@ -14,6 +14,10 @@ import numpy as np
 
 MIN_INNER_PX = 1
 """The inner pixels whose colour stands for the vehicle's lie this much deeper than the outline's band."""
+MIX_SLACK = 0.25
+"""A pixel is a mix of the road's colour and the vehicle's inner one when its change from the road, along the inner
+one's, is within this share of it beyond 0 and 1, and off that line by at most this share (else another part of the
+vehicle, a window beside the body's colour, or sensor noise on a faint change: its weight is left as it was)."""
 
 
 def edge_coverage(frame_bgr: np.ndarray, background_bgr: np.ndarray, mask: np.ndarray, doubtful: np.ndarray,
@@ -21,7 +25,8 @@ def edge_coverage(frame_bgr: np.ndarray, background_bgr: np.ndarray, mask: np.nd
     """The vehicle's share of each pixel within `band_px` of the outline of `mask` (inside and out), and where it is
     read: the frame's change from the background along the change of the nearest pixel deeper inside, clipped to
     [0, 1], where that inner pixel differs from the background by more than `min_contrast` (grey levels, its colour's
-    distance) and neither it nor the pixel is `doubtful` (maybe shadow: its mix is not the vehicle's and the road's)."""
+    distance), neither it nor the pixel is `doubtful` (maybe shadow: its mix is not the vehicle's and the road's), and
+    the pixel's colour is such a mix (`MIX_SLACK`)."""
     shape = mask.shape
     share, known = np.zeros(shape, np.float32), np.zeros(shape, bool)
     vehicle = mask.astype(np.uint8)
@@ -39,7 +44,11 @@ def edge_coverage(frame_bgr: np.ndarray, background_bgr: np.ndarray, mask: np.nd
     frame, background = frame_bgr.astype(np.float32), background_bgr.astype(np.float32)
     vehicle_change = frame[inner_row, inner_col] - background
     contrast_sq = (vehicle_change * vehicle_change).sum(axis=2)
-    known = band & (contrast_sq > min_contrast ** 2) & ~doubtful & ~doubtful[inner_row, inner_col]
-    mixed = ((frame - background) * vehicle_change).sum(axis=2) / np.maximum(contrast_sq, 1e-6)
+    change = frame - background
+    mixed = (change * vehicle_change).sum(axis=2) / np.maximum(contrast_sq, 1e-6)
+    off_mix = change - mixed[..., None] * vehicle_change
+    known = (band & (contrast_sq > min_contrast ** 2) & ~doubtful & ~doubtful[inner_row, inner_col]
+             & (mixed > -MIX_SLACK) & (mixed < 1.0 + MIX_SLACK)
+             & ((off_mix * off_mix).sum(axis=2) < (MIX_SLACK ** 2) * contrast_sq))
     share[known] = np.clip(mixed[known], 0.0, 1.0)
     return share, known
