@@ -168,7 +168,8 @@ def clean_mask(mask: np.ndarray, params: RoiParams) -> np.ndarray:
 @dataclass(frozen=True, eq=False)
 class Silhouette:
     """A vehicle's pixels in an ROI (bool mask), how much each weighs in the fit (1, or `silhouette_doubt_weight`
-    where the pixel is doubtful; `silhouette_shade_weight` where such pixels are not solid and reach the outline),
+    where the pixel is doubtful; `silhouette_shade_weight` where such pixels are not solid and reach the outline; along
+    the outline, inside and out, the share of the pixel the vehicle covers where its colour tells),
     which are doubtful (only darker than the road, of its chromaticity: maybe shadow the texture test could not tell)
     and which are solid: sure, or darker but smooth where the road has texture (a body face, not a shadow on the
     road); and every pixel's light ratio (the frame's sum of channels over the background's), for a model of the
