@@ -3,6 +3,7 @@ coverage; and what it does for the model fit of a far car, against its exact pos
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import pytest
 
@@ -11,7 +12,10 @@ from vehloc.data.shapes import VehicleShape
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.edge_coverage import edge_coverage
 from vehloc.geometry.model_fit import FitParams, fit_model, overlap
+from vehloc.geometry.motion import PathHeading
+from vehloc.geometry.pipeline.localize import fit_weights
 from vehloc.geometry.placement import VehicleBox, axis_difference_deg
+from vehloc.geometry.roi import RoiParams, vehicle_silhouette
 from vehloc.synth.body import convex_parts_car_mm
 from vehloc.synth.catalog import model_by_id
 from vehloc.synth.render import CarPose, CarRender, render_car
@@ -91,3 +95,22 @@ def test_the_overlap_is_best_where_the_shape_covers_the_pixel_s_share():
     shares = np.linspace(0.0, 1.0, 11)
     scores = [overlap(np.array([[1.0, share]], np.float32), weights) for share in shares]
     assert shares[int(np.argmax(scores))] == pytest.approx(0.3)
+
+
+def test_the_silhouette_carries_the_shares_and_only_a_still_vehicle_s_fit_reads_them():
+    """`vehicle_silhouette` reads the shares within the band of its outline (NaN beyond it, None with no band); the
+    fit of a vehicle without a path heading matches them, a moving one's (its heading its path's) the plain weights."""
+    render, background, _ = far_car(*FAR_CARS[1])
+    roi = Box.tight(render.coverage > 0).enlarged(0.3, 1280, 720)
+    silhouette = vehicle_silhouette(roi.crop(render.image_bgr), roi.crop(background), RoiParams.from_config())
+    read = ~np.isnan(silhouette.edge_share)
+    around = cv2.blur(silhouette.mask.astype(np.float32), (7, 7))  # 0 or 1: over 3 px off the outline
+    assert read.sum() > 200 and not (read & ((around < 1e-4) | (around > 1.0 - 1e-4))).any()
+    shared = fit_weights(silhouette, None)
+    assert np.array_equal(shared[read], silhouette.edge_share[read])
+    assert np.array_equal(shared[~read], silhouette.weights[~read])
+    moving = PathHeading(20.0, 0.5, 0.3, 30, 5000.0, 10.0)
+    assert fit_weights(silhouette, moving) is silhouette.weights
+    plain = vehicle_silhouette(roi.crop(render.image_bgr), roi.crop(background),
+                               RoiParams.from_config(silhouette_edge_band_px=0))
+    assert plain.edge_share is None and plain.weights_at_edges() is plain.weights

@@ -117,17 +117,18 @@ def shadow_pixels(ratio: np.ndarray, shadow_darkening: np.ndarray, tolerance: fl
 def refit_without_shadow(camera: PinholeCamera, silhouette: Silhouette, roi: Box, shape: VehicleShape, fit: ModelFit,
                          params: FitParams) -> tuple[ModelFit, np.ndarray]:
     """`params.shadow_passes` times: the road's shadow fitted around `fit`'s pose, the silhouette's doubtful pixels
-    it explains taken out of the fit's weights, and the vehicle refitted from that pose (facing as it does); the last
-    fit and the weights it was fitted to."""
+    it explains taken out of the fit's weights (the outline's shares in place: `Silhouette.weights_at_edges`), and the
+    vehicle refitted from that pose (facing as it does); the last fit and the weights it was fitted to."""
     ratio = light_ratio_smoothed(silhouette.light_ratio)
-    weights = silhouette.weights
+    shared = silhouette.weights_at_edges()
+    weights = shared
     refit_params = replace(params, try_reversed=False)
     for _ in range(params.shadow_passes):
         shadow = fit_road_shadow(camera, shape, fit.box, roi, ratio, params.shadow_grid_px,
                                  params.shadow_max_evaluations)
         shadowed = shadow_pixels(ratio, darkening(camera, fit.box, roi, shadow), params.shadow_ratio_tolerance,
                                  params.shadow_min_darkening)
-        weights = np.where(silhouette.doubtful & shadowed, 0.0, silhouette.weights)
+        weights = np.where(silhouette.doubtful & shadowed, 0.0, shared)
         refit = fit_model(camera, weights, roi, shape, fit.box, refit_params)
         fit = replace(refit, evaluations=fit.evaluations + refit.evaluations)
     return fit, weights

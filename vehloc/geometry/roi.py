@@ -168,12 +168,12 @@ def clean_mask(mask: np.ndarray, params: RoiParams) -> np.ndarray:
 @dataclass(frozen=True, eq=False)
 class Silhouette:
     """A vehicle's pixels in an ROI (bool mask), how much each weighs in the fit (1, or `silhouette_doubt_weight`
-    where the pixel is doubtful; `silhouette_shade_weight` where such pixels are not solid and reach the outline; along
-    the outline, inside and out, the share of the pixel the vehicle covers where its colour tells),
+    where the pixel is doubtful; `silhouette_shade_weight` where such pixels are not solid and reach the outline),
     which are doubtful (only darker than the road, of its chromaticity: maybe shadow the texture test could not tell)
     and which are solid: sure, or darker but smooth where the road has texture (a body face, not a shadow on the
     road); and every pixel's light ratio (the frame's sum of channels over the background's), for a model of the
-    shadow (`vehloc.geometry.road_shadow`)."""
+    shadow (`vehloc.geometry.road_shadow`); and along the outline, inside and out, the share of each pixel the vehicle
+    covers where its colour tells (`edge_coverage`; NaN elsewhere, None when none was read)."""
 
     mask: np.ndarray
     weights: np.ndarray
@@ -181,6 +181,13 @@ class Silhouette:
     solid: np.ndarray
     light_ratio: np.ndarray
     margin_px: int
+    edge_share: np.ndarray | None = None
+
+    def weights_at_edges(self) -> np.ndarray:
+        """The fit's weights with the outline's pixels weighing the share of them the vehicle covers, where read."""
+        if self.edge_share is None:
+            return self.weights
+        return np.where(np.isnan(self.edge_share), self.weights, self.edge_share)
 
     def trimmed(self) -> np.ndarray:
         """The mask without the pixels below the lowest solid one of each column (within `margin_px`, the
@@ -209,8 +216,8 @@ def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: 
     the vehicle, more likely than a part of it). Darker pixels
     are solid where their texture is below `silhouette_smooth_ratio` of the road's there (darkened alike): a smooth
     body face, unless they form a speck of fewer than `silhouette_min_solid_px` pixels (a deep shadow's compressed
-    texture can look smooth here and there). Within `silhouette_edge_band_px` of the outline (inside and out) a pixel
-    weighs the share of it the vehicle covers, where its colour tells (`edge_coverage`): the threshold's in or out
+    texture can look smooth here and there). Within `silhouette_edge_band_px` of the outline (inside and out) the share
+    of each pixel the vehicle covers is read where its colour tells (`edge_coverage`): the threshold's in or out
     moves the outline by up to half a pixel."""
     frame = roi_bgr.astype(np.float32)
     background = background_bgr.astype(np.float32)
@@ -246,12 +253,13 @@ def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: 
     if params.silhouette_shade_weight != doubt_weight:  # the outline's patches only where they weigh otherwise
         shade = at_outline(vehicle & doubtful & ~solid, vehicle)
         doubt_weight = np.where(shade, params.silhouette_shade_weight, doubt_weight)
-    weights = np.where(vehicle, np.where(doubtful, doubt_weight, 1.0), 0.0)
+    edge_share = None
     if params.silhouette_edge_band_px:
         share, known = edge_coverage(roi_bgr, background_bgr, vehicle, doubtful, params.silhouette_edge_band_px,
                                      params.silhouette_edge_min_contrast)
-        weights = np.where(known, share, weights)
-    return Silhouette(vehicle, weights, vehicle & doubtful, solid, ratio, window // 2)
+        edge_share = np.where(known, share, np.nan).astype(np.float32)
+    return Silhouette(vehicle, np.where(vehicle, np.where(doubtful, doubt_weight, 1.0), 0.0), vehicle & doubtful,
+                      solid, ratio, window // 2, edge_share)
 
 
 def vehicle_parts(contours: Sequence[np.ndarray], body: Box | None, min_part_fraction: float) -> list[np.ndarray]:
