@@ -362,8 +362,8 @@ class Localizer:
 
 def fit_weights(silhouette: Silhouette, motion: PathHeading | None) -> np.ndarray:
     """What the model fit matches: the silhouette's weights, with the outline's pixels weighing the share of them the
-    vehicle covers for a vehicle without a path heading (checked on still cars only; on the real highway clip's moving
-    vehicles the shares moved the fronts 0.1-0.2 m further short of the hand-read ones)."""
+    vehicle covers for a vehicle without a path heading (measured on still cars; on the real highway clip's moving
+    vehicles they moved 13 of 17 fronts further short of the hand-read ones, a median 0.08 m, one beyond 1.5 m)."""
     return silhouette.weights_at_edges() if motion is None else silhouette.weights
 
 
