@@ -1,8 +1,8 @@
 """The geometry of monocular vehicle localization, as maths on arrays: the projective transform of the road
 plane, the pinhole camera, calibration from lane markers, the background model's vehicle boxes and
-silhouettes (their outline pixels' shares), the detectors of the paper's key points (footprint lines, plate, wheels), the box's placement on
-the road, the model fit, the shadow a shape casts and the shadow beside a vehicle told from it by the road's
-light, a vehicle's path on the road, its reference point from its box and model, its speed, the speed benchmark's
+silhouettes (with the share of each outline pixel a vehicle covers), the detectors of the paper's key points
+(footprint lines, plate, wheels), the box's placement on the road, the model fit, the shadow a shape casts and
+the shadow beside a vehicle told from it by the road's light, a vehicle's path on the road, its reference point from its box and model, its speed, the speed benchmark's
 camera model, the estimates' uncertainty, and a camera from its traffic (vanishing points from segments, the camera
 from two of them, its height from a vehicle's box and shape).
 
@@ -20,8 +20,8 @@ __all__, __getattr__ = lazy_api(__name__, {
     "calibration": ["Calibration", "CalibrationError", "CalibrationParams", "calibrate", "camera_from_homography"],
     "camera": ["PinholeCamera"],
     "camera_calibration": ["CameraCalibration", "read_calibration"],
-    "edge_coverage": ["edge_coverage"],
     "cast_shadow": ["cast_shadow", "fit_cast", "sun_cast"],
+    "edge_coverage": ["edge_coverage"],
     "footprint": ["FootprintLines", "FootprintParams", "detect_footprint"],
     "keypoints": ["DetectorParams", "Placement", "paper_placement"],
     "markers": ["DetectedMarker", "MarkerDetectionParams", "detect_markers"],
