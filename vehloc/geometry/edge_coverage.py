@@ -40,15 +40,17 @@ def edge_coverage(frame_bgr: np.ndarray, background_bgr: np.ndarray, mask: np.nd
     rows, cols = np.nonzero(inner)  # the labels number the inner pixels in this (row-major) order
     nearest_row, nearest_col = np.zeros(labels.max() + 1, np.intp), np.zeros(labels.max() + 1, np.intp)
     nearest_row[labels[rows, cols]], nearest_col[labels[rows, cols]] = rows, cols
-    inner_row, inner_col = nearest_row[labels], nearest_col[labels]
-    frame, background = frame_bgr.astype(np.float32), background_bgr.astype(np.float32)
-    vehicle_change = frame[inner_row, inner_col] - background
-    contrast_sq = (vehicle_change * vehicle_change).sum(axis=2)
-    change = frame - background
-    mixed = (change * vehicle_change).sum(axis=2) / np.maximum(contrast_sq, 1e-6)
-    off_mix = change - mixed[..., None] * vehicle_change
-    known = (band & (contrast_sq > min_contrast ** 2) & ~doubtful & ~doubtful[inner_row, inner_col]
-             & (mixed > -MIX_SLACK) & (mixed < 1.0 + MIX_SLACK)
-             & ((off_mix * off_mix).sum(axis=2) < (MIX_SLACK ** 2) * contrast_sq))
-    share[known] = np.clip(mixed[known], 0.0, 1.0)
+    band_rows, band_cols = np.nonzero(band)  # only the band's pixels are read
+    inner_row, inner_col = nearest_row[labels[band_rows, band_cols]], nearest_col[labels[band_rows, band_cols]]
+    background = background_bgr[band_rows, band_cols].astype(np.float32)
+    change = frame_bgr[band_rows, band_cols].astype(np.float32) - background
+    vehicle_change = frame_bgr[inner_row, inner_col].astype(np.float32) - background
+    contrast_sq = (vehicle_change * vehicle_change).sum(axis=1)
+    mixed = (change * vehicle_change).sum(axis=1) / np.maximum(contrast_sq, 1e-6)
+    off_mix = change - mixed[:, None] * vehicle_change
+    readable = ((contrast_sq > min_contrast ** 2) & ~doubtful[band_rows, band_cols] & ~doubtful[inner_row, inner_col]
+                & (mixed > -MIX_SLACK) & (mixed < 1.0 + MIX_SLACK)
+                & ((off_mix * off_mix).sum(axis=1) < (MIX_SLACK ** 2) * contrast_sq))
+    known[band_rows[readable], band_cols[readable]] = True
+    share[band_rows[readable], band_cols[readable]] = np.clip(mixed[readable], 0.0, 1.0)
     return share, known

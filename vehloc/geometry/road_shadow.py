@@ -120,8 +120,7 @@ def refit_without_shadow(camera: PinholeCamera, silhouette: Silhouette, roi: Box
     it explains taken out of the fit's weights (the outline's shares in place: `Silhouette.weights_at_edges`), and the
     vehicle refitted from that pose (facing as it does); the last fit and the weights it was fitted to."""
     ratio = light_ratio_smoothed(silhouette.light_ratio)
-    shared = silhouette.weights_at_edges()
-    weights = shared
+    weights = shared = silhouette.weights_at_edges()
     refit_params = replace(params, try_reversed=False)
     for _ in range(params.shadow_passes):
         shadow = fit_road_shadow(camera, shape, fit.box, roi, ratio, params.shadow_grid_px,

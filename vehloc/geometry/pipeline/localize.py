@@ -277,8 +277,8 @@ class Localizer:
                 return replace(record, status=Status.NOT_LOCALIZED, reason_code=placement.code,
                                reason=placement.message, notes="")
             with self.clock.stage("model fit"):
-                starts = [self._start_box(track, spec, heading, kind, fit_weights(silhouette, motion), roi)
-                          for heading in headings]
+                weights = fit_weights(silhouette, motion)
+                starts = [self._start_box(track, spec, heading, kind, weights, roi) for heading in headings]
                 fit = self._fit(starts, silhouette, roi, probabilities, came, motion, kind)
             if fit.iou < self.params.min_fit_iou:
                 return replace(record, status=Status.NOT_LOCALIZED, reason_code=ReasonCode.POOR_FIT,
