@@ -1,10 +1,11 @@
 """The geometry of monocular vehicle localization, as maths on arrays: the projective transform of the road plane, the
 pinhole camera, calibration from lane markers, the background model's vehicle boxes and silhouettes (with the share
-of each outline pixel a vehicle covers), the detectors of the paper's key points (footprint lines, plate, wheels),
-the box's placement on the road, the model fit, the shadow a shape casts and the shadow beside a vehicle told from
-it by the road's light, a vehicle's path on the road, its reference point from its box and model, its speed, the
-speed benchmark's camera model, the estimates' uncertainty, and a camera from its traffic (vanishing points from
-segments, the camera from two of them, its height from a vehicle's box and shape).
+of each outline pixel a vehicle covers, and a shadow's chromaticity where a coloured vehicle's bleeds into it), the
+detectors of the paper's key points (footprint lines, plate, wheels), the box's placement on the road, the model fit,
+the shadow a shape casts and the shadow beside a vehicle told from it by the road's light, a vehicle's path on the
+road, its reference point from its box and model, its speed, the speed benchmark's camera model, the estimates'
+uncertainty, and a camera from its traffic (vanishing points from segments, the camera from two of them, its height
+from a vehicle's box and shape).
 
 It imports no classifier and writes no file: the pipeline above it (`vehloc.geometry.pipeline`) runs it over
 videos with the classifier and writes the results. The names below are its API; the rest of each module is
@@ -21,6 +22,7 @@ __all__, __getattr__ = lazy_api(__name__, {
     "camera": ["PinholeCamera"],
     "camera_calibration": ["CameraCalibration", "read_calibration"],
     "cast_shadow": ["cast_shadow", "fit_cast", "sun_cast"],
+    "chroma": ["chromaticity_shift", "colour_change"],
     "edge_coverage": ["edge_coverage"],
     "footprint": ["FootprintLines", "FootprintParams", "detect_footprint"],
     "keypoints": ["DetectorParams", "Placement", "paper_placement"],

@@ -17,6 +17,7 @@ import numpy as np
 
 from vehloc.config import check_interval, check_range, params_from_config
 from vehloc.data.boxes import Box
+from vehloc.geometry.chroma import chromaticity_shift
 from vehloc.geometry.edge_coverage import edge_coverage
 
 MOG2_SHADOW_VALUE = 127
@@ -54,6 +55,8 @@ class RoiParams:
     silhouette_covered_max_correlation: float
     silhouette_covered_erode_px: int
     silhouette_doubt_max_chroma: float
+    silhouette_doubt_bleed_px: int
+    silhouette_doubt_bleed_min_change: float
     silhouette_close_px: int
     silhouette_doubt_weight: float
     silhouette_shade_weight: float
@@ -83,6 +86,8 @@ class RoiParams:
         check_interval("silhouette_shadow_ratio", self.silhouette_shadow_ratio, 0.0, 1.0)
         check_range("silhouette_covered_erode_px", self.silhouette_covered_erode_px, 0, MAX_KERNEL_PX)
         check_range("silhouette_doubt_max_chroma", self.silhouette_doubt_max_chroma, 0.0, 1.0)
+        check_range("silhouette_doubt_bleed_px", self.silhouette_doubt_bleed_px, 0, MAX_KERNEL_PX)
+        check_range("silhouette_doubt_bleed_min_change", self.silhouette_doubt_bleed_min_change, 0.0, 255.0)
         check_range("silhouette_doubt_weight", self.silhouette_doubt_weight, 0.0, 1.0)
         check_range("silhouette_shade_weight", self.silhouette_shade_weight, 0.0, 1.0)
         check_range("silhouette_smooth_ratio", self.silhouette_smooth_ratio, 0.0)
@@ -210,8 +215,10 @@ def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: 
     largest blob kept, and with it, where the vehicle's box in the ROI (`body`, the tracked box) is given, every
     blob of at least `silhouette_min_part_fraction` of its area whose centre lies in that box: a body face of the
     road's colour breaks a vehicle into parts (a grey side over grey asphalt cuts the wheels off). A pixel darker
-    than the road that keeps its chromaticity (within `silhouette_doubt_max_chroma`) may be shadow the texture test
-    could not tell: it weighs `silhouette_doubt_weight` in the fit (dark paint of a colour weighs 1), and
+    than the road that keeps its chromaticity (within `silhouette_doubt_max_chroma`; within
+    `silhouette_doubt_bleed_px` of a pixel whose colour changed by more than `silhouette_doubt_bleed_min_change`, the
+    least shift there: a coloured vehicle's chroma bleeds into its shadow, `vehloc.geometry.chroma`) may be shadow
+    the texture test could not tell: it weighs `silhouette_doubt_weight` in the fit (dark paint of a colour weighs 1), and
     `silhouette_shade_weight` where it is not solid and its patch reaches the silhouette's outline (the shadow beside
     the vehicle, more likely than a part of it). Darker pixels
     are solid where their texture is below `silhouette_smooth_ratio` of the road's there (darkened alike): a smooth
@@ -244,7 +251,8 @@ def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: 
                          cv2.FILLED)
     vehicle = filled > 0
     darker_than_road = ratio <= high
-    chroma_shift = np.abs(frame / frame_sum[..., None] - background / background_sum[..., None]).max(axis=2)
+    chroma_shift = chromaticity_shift(roi_bgr, background_bgr, params.silhouette_doubt_bleed_px,
+                                      params.silhouette_doubt_bleed_min_change)
     doubtful = darker_than_road & (chroma_shift < params.silhouette_doubt_max_chroma)
     window = params.silhouette_shadow_window_px
     smooth = local_std(grey, window) < params.silhouette_smooth_ratio * ratio * texture
