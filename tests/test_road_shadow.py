@@ -5,13 +5,14 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import cv2
 import numpy as np
 import pytest
 
 from vehloc.data.boxes import Box
 from vehloc.data.shapes import VehicleShape
 from vehloc.geometry.camera import PinholeCamera
-from vehloc.geometry.model_fit import FitParams, fit_model, silhouette
+from vehloc.geometry.model_fit import FitParams, coverage, fit_model, silhouette
 from vehloc.geometry.placement import VehicleBox
 from vehloc.geometry.road_shadow import (
     RoadShadow,
@@ -19,6 +20,7 @@ from vehloc.geometry.road_shadow import (
     fit_road_shadow,
     light_ratio_smoothed,
     refit_without_shadow,
+    shadow_edge_shares,
     shadow_pixels,
 )
 from vehloc.geometry.roi import Silhouette
@@ -46,11 +48,12 @@ def test_the_darkening_is_the_footprint_where_the_road_maps_it():
 
 
 def ratio_with(shadow: RoadShadow, car_ratio: np.ndarray | float, seed: int = 0) -> np.ndarray:
-    """The light ratio of the ROI: the shadow's on the road, `car_ratio` on the car, sensor noise of 0.04."""
-    car = silhouette(CAMERA, SHAPE, TRUTH, ROI, 1)
+    """The light ratio of the ROI: the shadow's on the road, `car_ratio` on the car, mixed in proportion to the share
+    of each pixel the car covers, and sensor noise of 0.04."""
+    car = coverage(CAMERA, SHAPE, TRUTH, ROI, 8)
     road = 1.0 - darkening(CAMERA, TRUTH, ROI, shadow)
     noise = np.random.default_rng(seed).normal(0.0, 0.04, road.shape)
-    return (np.where(car, car_ratio, road) + noise).astype(np.float32)
+    return (car * car_ratio + (1.0 - car) * road + noise).astype(np.float32)
 
 
 def test_the_fit_recovers_a_known_shadow_from_the_light_ratio():
@@ -70,13 +73,16 @@ def shadowed_silhouette() -> Silhouette:
     (doubtful), both weighing 0.5, as the silhouette weighs what is only darker than the road."""
     car = silhouette(CAMERA, SHAPE, TRUTH, ROI, 1)
     rows = np.nonzero(car.any(axis=1))[0]
-    lower = car & (np.arange(car.shape[0])[:, None] >= rows[0] + 2 * (rows[-1] - rows[0]) // 3)
+    lower_rows = np.arange(car.shape[0])[:, None] >= rows[0] + 2 * (rows[-1] - rows[0]) // 3
+    lower = car & lower_rows
     shadow = (darkening(CAMERA, TRUTH, ROI, SHADOW) > 0.1) & ~car
     mask = car | shadow
     doubtful = lower | shadow
-    car_ratio = np.where(lower, 0.15, 1.5)
+    car_ratio = np.where(lower_rows, 0.15, 1.5)
+    covered = coverage(CAMERA, SHAPE, TRUTH, ROI, 8)
+    outline = (covered > 0.0) & (covered < 1.0) & ~doubtful  # the shares `edge_coverage` reads (exact here)
     return Silhouette(mask, np.where(mask, np.where(doubtful, 0.5, 1.0), 0.0).astype(np.float32), doubtful,
-                      car & ~lower, ratio_with(SHADOW, car_ratio), 3)
+                      car & ~lower, ratio_with(SHADOW, car_ratio), 3, np.where(outline, covered, np.nan))
 
 
 def position_error_mm(box: VehicleBox) -> float:
@@ -85,20 +91,43 @@ def position_error_mm(box: VehicleBox) -> float:
 
 def test_the_refit_without_the_shadow_comes_back_to_the_car():
     """From a start 150 mm and 1 deg off, the silhouette's weights alone let the shadow pull the fit 5.5 mm and
-    0.45 deg off; with the shadow fitted and its pixels out it lands within 4 mm and 0.25 deg (2.8 mm, 0.05 deg),
-    the black lower body kept at its weight."""
+    0.45 deg off. With the shadow fitted and its pixels out, and where the black lower body meets its shadow each
+    pixel weighing the share of it the car covers (read against the shadowed road), the refit lands within 8 mm and
+    0.25 deg (measured 6.3 mm, 0.06 deg); without those shares it lands over 10 mm off (11.9 mm, 0.32 deg: the
+    lower body's edge pixels, mixed with the shadow, weigh half). The lower body away from the outline keeps its
+    weight; the shadow beside the car is out."""
     weighed = shadowed_silhouette()
     params = FitParams.from_config()
     start = replace(TRUTH, centre_mm=TRUTH.centre_mm + [150.0, 0.0], heading_deg=21.0)
     plain = fit_model(CAMERA, weighed.weights, ROI, SHAPE, start, params)
     refit, weights = refit_without_shadow(CAMERA, weighed, ROI, SHAPE, plain, params)
+    unshared, _ = refit_without_shadow(CAMERA, weighed, ROI, SHAPE, plain, replace(params, shadow_edge_band_px=0))
     assert position_error_mm(plain.box) > 5.0 and abs(plain.box.heading_deg - TRUTH.heading_deg) > 0.3
-    assert position_error_mm(refit.box) < 4.0 and abs(refit.box.heading_deg - TRUTH.heading_deg) < 0.25
-    lower_black = weighed.doubtful & silhouette(CAMERA, SHAPE, TRUTH, ROI, 1)
-    assert (weights[lower_black] == 0.5).mean() > 0.95
-    beside = weighed.doubtful & ~silhouette(CAMERA, SHAPE, TRUTH, ROI, 1)
+    assert position_error_mm(refit.box) < 8.0 and abs(refit.box.heading_deg - TRUTH.heading_deg) < 0.25
+    assert position_error_mm(unshared.box) > 10.0
+    car = silhouette(CAMERA, SHAPE, TRUTH, ROI, 1)
+    deep = cv2.erode(car.view(np.uint8), np.ones((9, 9), np.uint8)) > 0
+    assert (weights[weighed.doubtful & deep] == 0.5).all()
+    beside = weighed.doubtful & ~car
     assert (weights[beside] == 0.0).mean() > 0.9
     assert refit.evaluations > plain.evaluations
+
+
+def test_the_shares_where_a_car_meets_its_shadow_are_its_coverage():
+    """Exact: a dark car (light ratio 0.15) mixed with its shadowed road in proportion to its coverage gives back the
+    coverage, to float precision, on every doubtful pixel within 2 px of its outline (away from the ROI's sides); where the car's light is within
+    `min_difference` of the shadowed road's (a car of ratio 0.5 beside a shadow leaving 0.45), nothing is read."""
+    covered = coverage(CAMERA, SHAPE, TRUTH, ROI, 8)
+    lit = 1.0 - darkening(CAMERA, TRUTH, ROI, SHADOW)
+    doubtful = np.ones(covered.shape, bool)
+    share = shadow_edge_shares(covered * 0.15 + (1.0 - covered) * lit, doubtful, covered >= 0.5, lit, 2, 0.1)
+    read = ~np.isnan(share)
+    read[:4], read[-4:], read[:, :4], read[:, -4:] = False, False, False, False  # the car is cut by the ROI's top
+    assert read.sum() > 500 and (read & (covered > 0.0) & (covered < 1.0)).sum() > 200
+    assert np.abs(share - covered)[read].max() < 1e-4
+    pale = shadow_edge_shares(covered * 0.5 + (1.0 - covered) * lit, doubtful, covered >= 0.5, lit, 2, 0.1)
+    assert not (~np.isnan(pale) & (np.abs(0.5 - lit) <= 0.1)).any()
+    assert np.isnan(shadow_edge_shares(covered * 0.15, ~doubtful, covered >= 0.5, lit, 2, 0.1)).all()
 
 
 def test_no_shadow_passes_leave_the_fit_as_it_is():
@@ -107,5 +136,5 @@ def test_no_shadow_passes_leave_the_fit_as_it_is():
     plain = fit_model(CAMERA, weighed.weights, ROI, SHAPE, TRUTH, params)
     same, weights = refit_without_shadow(CAMERA, weighed, ROI, SHAPE, plain, params)
     assert same == plain
-    assert weights is weighed.weights
+    assert np.array_equal(weights, weighed.weights_at_edges(), equal_nan=True)
 

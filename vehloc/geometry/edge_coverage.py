@@ -20,6 +20,25 @@ one's, is within this share of it beyond 0 and 1, and off that line by at most t
 vehicle, a window beside the body's colour, or sensor noise on a faint change: its weight is left as it was)."""
 
 
+def band_and_inner(mask: np.ndarray, band_px: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """The pixels within `band_px` of the outline of `mask` (inside and out), as rows and columns, and for each the
+    nearest pixel `MIN_INNER_PX` deeper inside than the band (rows and columns); None when `mask` has no such inside."""
+    vehicle = mask.astype(np.uint8)
+    band_kernel = np.ones((2 * band_px + 1,) * 2, np.uint8)
+    inner_reach = band_px + MIN_INNER_PX
+    inner = cv2.erode(vehicle, np.ones((2 * inner_reach + 1,) * 2, np.uint8))
+    if not inner.any():
+        return None
+    band = (cv2.dilate(vehicle, band_kernel) > 0) & ~(cv2.erode(vehicle, band_kernel) > 0)
+    _, labels = cv2.distanceTransformWithLabels(1 - inner, cv2.DIST_L2, 5, labelType=cv2.DIST_LABEL_PIXEL)
+    rows, cols = np.nonzero(inner)  # the labels number the inner pixels in this (row-major) order
+    nearest_row, nearest_col = np.zeros(labels.max() + 1, np.intp), np.zeros(labels.max() + 1, np.intp)
+    nearest_row[labels[rows, cols]], nearest_col[labels[rows, cols]] = rows, cols
+    band_rows, band_cols = np.nonzero(band)
+    return (band_rows, band_cols, nearest_row[labels[band_rows, band_cols]],
+            nearest_col[labels[band_rows, band_cols]])
+
+
 def edge_coverage(frame_bgr: np.ndarray, background_bgr: np.ndarray, mask: np.ndarray, doubtful: np.ndarray,
                   band_px: int, min_contrast: float) -> tuple[np.ndarray, np.ndarray]:
     """The vehicle's share of each pixel within `band_px` of the outline of `mask` (inside and out), and where it is
@@ -27,21 +46,11 @@ def edge_coverage(frame_bgr: np.ndarray, background_bgr: np.ndarray, mask: np.nd
     [0, 1], where that inner pixel differs from the background by more than `min_contrast` (grey levels, its colour's
     distance), neither it nor the pixel is `doubtful` (maybe shadow: its mix is not the vehicle's and the road's), and
     the pixel's colour is such a mix (`MIX_SLACK`)."""
-    shape = mask.shape
-    share, known = np.zeros(shape, np.float32), np.zeros(shape, bool)
-    vehicle = mask.astype(np.uint8)
-    band_kernel = np.ones((2 * band_px + 1,) * 2, np.uint8)
-    inner_reach = band_px + MIN_INNER_PX
-    inner = cv2.erode(vehicle, np.ones((2 * inner_reach + 1,) * 2, np.uint8))
-    if not inner.any():
+    share, known = np.zeros(mask.shape, np.float32), np.zeros(mask.shape, bool)
+    pairs = band_and_inner(mask, band_px)
+    if pairs is None:
         return share, known
-    band = (cv2.dilate(vehicle, band_kernel) > 0) & ~(cv2.erode(vehicle, band_kernel) > 0)
-    _, labels = cv2.distanceTransformWithLabels(1 - inner, cv2.DIST_L2, 5, labelType=cv2.DIST_LABEL_PIXEL)
-    rows, cols = np.nonzero(inner)  # the labels number the inner pixels in this (row-major) order
-    nearest_row, nearest_col = np.zeros(labels.max() + 1, np.intp), np.zeros(labels.max() + 1, np.intp)
-    nearest_row[labels[rows, cols]], nearest_col[labels[rows, cols]] = rows, cols
-    band_rows, band_cols = np.nonzero(band)  # only the band's pixels are read
-    inner_row, inner_col = nearest_row[labels[band_rows, band_cols]], nearest_col[labels[band_rows, band_cols]]
+    band_rows, band_cols, inner_row, inner_col = pairs  # only the band's pixels are read
     background = background_bgr[band_rows, band_cols].astype(np.float32)
     change = frame_bgr[band_rows, band_cols].astype(np.float32) - background
     vehicle_change = frame_bgr[inner_row, inner_col].astype(np.float32) - background

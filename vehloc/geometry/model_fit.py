@@ -29,6 +29,8 @@ MAX_SHADOW_PASSES = 5
 """The most rounds of fitting the road's shadow and refitting the vehicle without it."""
 MIN_SHADOW_GRID_PX, MAX_SHADOW_GRID_PX = 16, 1024
 """The coarsest and finest grid (its longer side) the road's shadow is fitted on."""
+MAX_SHADOW_EDGE_BAND_PX = 16
+"""The widest band about the fitted outline whose doubtful pixels are read against the shadowed road."""
 
 
 @dataclass(frozen=True)
@@ -47,6 +49,8 @@ class FitParams:
     shadow_min_darkening: float
     shadow_grid_px: int
     shadow_max_evaluations: int
+    shadow_edge_band_px: int
+    shadow_edge_min_difference: float
 
     def __post_init__(self) -> None:
         check_range("supersample", self.supersample, 1, MAX_SUPERSAMPLE)
@@ -58,6 +62,8 @@ class FitParams:
         check_range("shadow_min_darkening", self.shadow_min_darkening, 0.0, 1.0, low_open=True)
         check_range("shadow_grid_px", self.shadow_grid_px, MIN_SHADOW_GRID_PX, MAX_SHADOW_GRID_PX)
         check_range("shadow_max_evaluations", self.shadow_max_evaluations, 1, MAX_EVALUATIONS)
+        check_range("shadow_edge_band_px", self.shadow_edge_band_px, 0, MAX_SHADOW_EDGE_BAND_PX)
+        check_range("shadow_edge_min_difference", self.shadow_edge_min_difference, 0.0, 1.0)
 
     @classmethod
     def from_config(cls, **overrides: object) -> FitParams:

@@ -17,7 +17,8 @@ import numpy as np
 from vehloc.data.boxes import Box
 from vehloc.data.shapes import VehicleShape
 from vehloc.geometry.camera import PinholeCamera
-from vehloc.geometry.model_fit import FitParams, ModelFit, fit_model, silhouette
+from vehloc.geometry.edge_coverage import MIX_SLACK, band_and_inner
+from vehloc.geometry.model_fit import FitParams, ModelFit, coverage, fit_model, silhouette
 from vehloc.geometry.placement import VehicleBox
 from vehloc.geometry.roi import Silhouette
 
@@ -114,20 +115,49 @@ def shadow_pixels(ratio: np.ndarray, shadow_darkening: np.ndarray, tolerance: fl
     return (np.abs(ratio - (1.0 - shadow_darkening)) < tolerance) & (shadow_darkening >= min_darkening)
 
 
+def shadow_edge_shares(light_ratio: np.ndarray, doubtful: np.ndarray, fitted: np.ndarray, lit: np.ndarray,
+                       band_px: int, min_difference: float) -> np.ndarray:
+    """Where a vehicle meets its shadow: the share of each `doubtful` pixel within `band_px` of the outline of
+    `fitted` (the fitted shape's pixels; inside and out) the vehicle covers, read from its `light_ratio` as a mix of
+    the vehicle's (the nearest pixel deeper inside, as `edge_coverage`) and the shadowed road's (`lit`: one minus
+    the shadow's darkening), where the two differ by more than `min_difference` and the mix is within `MIX_SLACK` of
+    [0, 1]; NaN elsewhere (float32)."""
+    share = np.full(light_ratio.shape, np.nan, np.float32)
+    pairs = band_and_inner(fitted, band_px)
+    if pairs is None:
+        return share
+    band_rows, band_cols, inner_row, inner_col = pairs
+    read = doubtful[band_rows, band_cols]
+    band_rows, band_cols, inner_row, inner_col = band_rows[read], band_cols[read], inner_row[read], inner_col[read]
+    road = lit[band_rows, band_cols]
+    difference = light_ratio[inner_row, inner_col] - road
+    mixed = (light_ratio[band_rows, band_cols] - road) / np.where(difference == 0.0, 1.0, difference)
+    readable = (np.abs(difference) > min_difference) & (mixed > -MIX_SLACK) & (mixed < 1.0 + MIX_SLACK)
+    share[band_rows[readable], band_cols[readable]] = np.clip(mixed[readable], 0.0, 1.0)
+    return share
+
+
 def refit_without_shadow(camera: PinholeCamera, silhouette: Silhouette, roi: Box, shape: VehicleShape, fit: ModelFit,
                          params: FitParams) -> tuple[ModelFit, np.ndarray]:
     """`params.shadow_passes` times: the road's shadow fitted around `fit`'s pose, the silhouette's doubtful pixels
-    it explains taken out of the fit's weights (the outline's shares in place: `Silhouette.weights_at_edges`), and the
-    vehicle refitted from that pose (facing as it does); the last fit and the weights it was fitted to."""
+    it explains taken out of the fit's weights (the outline's shares in place: `Silhouette.weights_at_edges`), those
+    near the fitted outline weighing the share of them the vehicle covers against the shadowed road
+    (`shadow_edge_shares`, with `params.shadow_edge_band_px`), and the vehicle refitted from that pose (facing as it
+    does); the last fit and the weights it was fitted to."""
     ratio = light_ratio_smoothed(silhouette.light_ratio)
     weights = shared = silhouette.weights_at_edges()
     refit_params = replace(params, try_reversed=False)
     for _ in range(params.shadow_passes):
         shadow = fit_road_shadow(camera, shape, fit.box, roi, ratio, params.shadow_grid_px,
                                  params.shadow_max_evaluations)
-        shadowed = shadow_pixels(ratio, darkening(camera, fit.box, roi, shadow), params.shadow_ratio_tolerance,
-                                 params.shadow_min_darkening)
+        shade = darkening(camera, fit.box, roi, shadow)
+        shadowed = shadow_pixels(ratio, shade, params.shadow_ratio_tolerance, params.shadow_min_darkening)
         weights = np.where(silhouette.doubtful & shadowed, 0.0, shared)
+        if params.shadow_edge_band_px:
+            fitted = coverage(camera, shape, fit.box, roi, 1) >= 0.5
+            edge = shadow_edge_shares(silhouette.light_ratio, silhouette.doubtful, fitted, 1.0 - shade,
+                                      params.shadow_edge_band_px, params.shadow_edge_min_difference)
+            weights = np.where(np.isnan(edge), weights, edge)
         refit = fit_model(camera, weights, roi, shape, fit.box, refit_params)
         fit = replace(refit, evaluations=fit.evaluations + refit.evaluations)
     return fit, weights
