@@ -5,7 +5,9 @@ dark paint); the silhouette cannot tell them apart pixel by pixel and weighs the
 the road's darkening is smooth, so a few numbers model it: the footprint on the road, grown and shifted away from the
 light, soft-edged and uniformly dark (`RoadShadow`). It is fitted to the light ratio (frame over background) of the
 pixels outside the vehicle's projected shape (`fit_road_shadow`), and the doubtful pixels whose ratio it explains are
-the shadow; the others, whose light it does not explain, are the vehicle's (`shadow_pixels`)."""
+the shadow; the others, whose light it does not explain, are the vehicle's (`shadow_pixels`). Where the vehicle meets
+its shadow, an outline pixel's light mixes the vehicle's and the shadowed road's in proportion to the share of it each
+covers, which it gives back (`shadow_edge_shares`)."""
 
 from __future__ import annotations
 
