@@ -93,7 +93,7 @@ def test_the_refit_without_the_shadow_comes_back_to_the_car():
     """From a start 150 mm and 1 deg off, the silhouette's weights alone let the shadow pull the fit 5.5 mm and
     0.45 deg off. With the shadow fitted and its pixels out, and where the black lower body meets its shadow each
     pixel weighing the share of it the car covers (read against the shadowed road), the refit lands within 8 mm and
-    0.25 deg (measured 6.3 mm, 0.06 deg); without those shares it lands over 10 mm off (11.9 mm, 0.32 deg: the
+    0.25 deg (measured 6.3 mm, 0.05 deg); without those shares it lands over 10 mm off (11.9 mm, 0.32 deg: the
     lower body's edge pixels, mixed with the shadow, weigh half). The lower body away from the outline keeps its
     weight; the shadow beside the car is out."""
     weighed = shadowed_silhouette()
@@ -115,19 +115,19 @@ def test_the_refit_without_the_shadow_comes_back_to_the_car():
 
 def test_the_shares_where_a_car_meets_its_shadow_are_its_coverage():
     """Exact: a dark car (light ratio 0.15) mixed with its shadowed road in proportion to its coverage gives back the
-    coverage, to float precision, on every doubtful pixel within 2 px of its outline (away from the ROI's sides); where the car's light is within
+    coverage, to float precision, on every shaded pixel (in the shadow, or maybe) within 2 px of its outline (away from the ROI's sides); where the car's light is within
     `min_difference` of the shadowed road's (a car of ratio 0.5 beside a shadow leaving 0.45), nothing is read."""
     covered = coverage(CAMERA, SHAPE, TRUTH, ROI, 8)
     lit = 1.0 - darkening(CAMERA, TRUTH, ROI, SHADOW)
-    doubtful = np.ones(covered.shape, bool)
-    share = shadow_edge_shares(covered * 0.15 + (1.0 - covered) * lit, doubtful, covered >= 0.5, lit, 2, 0.1)
+    shaded = np.ones(covered.shape, bool)
+    share = shadow_edge_shares(covered * 0.15 + (1.0 - covered) * lit, shaded, covered >= 0.5, lit, 2, 0.1)
     read = ~np.isnan(share)
     read[:4], read[-4:], read[:, :4], read[:, -4:] = False, False, False, False  # the car is cut by the ROI's top
     assert read.sum() > 500 and (read & (covered > 0.0) & (covered < 1.0)).sum() > 200
     assert np.abs(share - covered)[read].max() < 1e-4
-    pale = shadow_edge_shares(covered * 0.5 + (1.0 - covered) * lit, doubtful, covered >= 0.5, lit, 2, 0.1)
+    pale = shadow_edge_shares(covered * 0.5 + (1.0 - covered) * lit, shaded, covered >= 0.5, lit, 2, 0.1)
     assert not (~np.isnan(pale) & (np.abs(0.5 - lit) <= 0.1)).any()
-    assert np.isnan(shadow_edge_shares(covered * 0.15, ~doubtful, covered >= 0.5, lit, 2, 0.1)).all()
+    assert np.isnan(shadow_edge_shares(covered * 0.15, ~shaded, covered >= 0.5, lit, 2, 0.1)).all()
 
 
 def test_no_shadow_passes_leave_the_fit_as_it_is():

@@ -117,19 +117,19 @@ def shadow_pixels(ratio: np.ndarray, shadow_darkening: np.ndarray, tolerance: fl
     return (np.abs(ratio - (1.0 - shadow_darkening)) < tolerance) & (shadow_darkening >= min_darkening)
 
 
-def shadow_edge_shares(light_ratio: np.ndarray, doubtful: np.ndarray, fitted: np.ndarray, lit: np.ndarray,
+def shadow_edge_shares(light_ratio: np.ndarray, shaded: np.ndarray, fitted: np.ndarray, lit: np.ndarray,
                        band_px: int, min_difference: float) -> np.ndarray:
-    """Where a vehicle meets its shadow: the share of each `doubtful` pixel within `band_px` of the outline of
-    `fitted` (the fitted shape's pixels; inside and out) the vehicle covers, read from its `light_ratio` as a mix of
-    the vehicle's (the nearest pixel deeper inside, as `edge_coverage`) and the shadowed road's (`lit`: one minus
-    the shadow's darkening), where the two differ by more than `min_difference` and the mix is within `MIX_SLACK` of
-    [0, 1]; NaN elsewhere (float32)."""
+    """Where a vehicle meets its shadow: the share of each `shaded` pixel (in the shadow, or maybe) within `band_px`
+    of the outline of `fitted` (the fitted shape's pixels; inside and out) the vehicle covers, read from its
+    `light_ratio` as a mix of the vehicle's (the nearest pixel deeper inside, as `edge_coverage`) and the shadowed
+    road's (`lit`: one minus the shadow's darkening), where the two differ by more than `min_difference` and the mix
+    is within `MIX_SLACK` of [0, 1]; NaN elsewhere (float32)."""
     share = np.full(light_ratio.shape, np.nan, np.float32)
     pairs = band_and_inner(fitted, band_px)
     if pairs is None:
         return share
     band_rows, band_cols, inner_row, inner_col = pairs
-    read = doubtful[band_rows, band_cols]
+    read = shaded[band_rows, band_cols]
     band_rows, band_cols, inner_row, inner_col = band_rows[read], band_cols[read], inner_row[read], inner_col[read]
     road = lit[band_rows, band_cols]
     difference = light_ratio[inner_row, inner_col] - road
@@ -143,9 +143,10 @@ def refit_without_shadow(camera: PinholeCamera, silhouette: Silhouette, roi: Box
                          params: FitParams) -> tuple[ModelFit, np.ndarray]:
     """`params.shadow_passes` times: the road's shadow fitted around `fit`'s pose, the silhouette's doubtful pixels
     it explains taken out of the fit's weights (the outline's shares in place: `Silhouette.weights_at_edges`), those
-    near the fitted outline weighing the share of them the vehicle covers against the shadowed road
-    (`shadow_edge_shares`, with `params.shadow_edge_band_px`), and the vehicle refitted from that pose (facing as it
-    does); the last fit and the weights it was fitted to."""
+    near the fitted outline, and the pixels there that the shadow darkens (by `params.shadow_min_darkening` or more:
+    their colour's share, read against the unshadowed road, does not hold), weighing the share of them the vehicle
+    covers against the shadowed road (`shadow_edge_shares`, with `params.shadow_edge_band_px`), and the vehicle
+    refitted from that pose (facing as it does); the last fit and the weights it was fitted to."""
     ratio = light_ratio_smoothed(silhouette.light_ratio)
     weights = shared = silhouette.weights_at_edges()
     refit_params = replace(params, try_reversed=False)
@@ -157,7 +158,8 @@ def refit_without_shadow(camera: PinholeCamera, silhouette: Silhouette, roi: Box
         weights = np.where(silhouette.doubtful & shadowed, 0.0, shared)
         if params.shadow_edge_band_px:
             fitted = coverage(camera, shape, fit.box, roi, 1) >= 0.5
-            edge = shadow_edge_shares(silhouette.light_ratio, silhouette.doubtful, fitted, 1.0 - shade,
+            shaded = silhouette.doubtful | (shade >= params.shadow_min_darkening)
+            edge = shadow_edge_shares(silhouette.light_ratio, shaded, fitted, 1.0 - shade,
                                       params.shadow_edge_band_px, params.shadow_edge_min_difference)
             weights = np.where(np.isnan(edge), weights, edge)
         refit = fit_model(camera, weights, roi, shape, fit.box, refit_params)
