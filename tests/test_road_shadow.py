@@ -115,8 +115,9 @@ def test_the_refit_without_the_shadow_comes_back_to_the_car():
 
 def test_the_shares_where_a_car_meets_its_shadow_are_its_coverage():
     """Exact: a dark car (light ratio 0.15) mixed with its shadowed road in proportion to its coverage gives back the
-    coverage, to float precision, on every shaded pixel (in the shadow, or maybe) within 2 px of its outline (away from the ROI's sides); where the car's light is within
-    `min_difference` of the shadowed road's (a car of ratio 0.5 beside a shadow leaving 0.45), nothing is read."""
+    coverage, to float precision, on every shaded pixel (in the shadow, or maybe) within 2 px of its outline (away
+    from the ROI's sides); where the car's light is within `min_difference` of the shadowed road's (a car of ratio
+    0.5 beside a shadow leaving 0.45), nothing is read."""
     covered = coverage(CAMERA, SHAPE, TRUTH, ROI, 8)
     lit = 1.0 - darkening(CAMERA, TRUTH, ROI, SHADOW)
     shaded = np.ones(covered.shape, bool)

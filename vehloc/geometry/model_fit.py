@@ -30,7 +30,7 @@ MAX_SHADOW_PASSES = 5
 MIN_SHADOW_GRID_PX, MAX_SHADOW_GRID_PX = 16, 1024
 """The coarsest and finest grid (its longer side) the road's shadow is fitted on."""
 MAX_SHADOW_EDGE_BAND_PX = 16
-"""The widest band about the fitted outline whose doubtful pixels are read against the shadowed road."""
+"""The widest band about the fitted outline whose shaded pixels are read against the shadowed road."""
 
 
 @dataclass(frozen=True)

@@ -218,9 +218,9 @@ def vehicle_silhouette(roi_bgr: np.ndarray, background_bgr: np.ndarray, params: 
     than the road that keeps its chromaticity (within `silhouette_doubt_max_chroma`; within
     `silhouette_doubt_bleed_px` of a pixel whose colour changed by more than `silhouette_doubt_bleed_min_change`, the
     least shift there: a coloured vehicle's chroma bleeds into its shadow, `vehloc.geometry.chroma`) may be shadow
-    the texture test could not tell: it weighs `silhouette_doubt_weight` in the fit (dark paint of a colour weighs 1), and
-    `silhouette_shade_weight` where it is not solid and its patch reaches the silhouette's outline (the shadow beside
-    the vehicle, more likely than a part of it). Darker pixels
+    the texture test could not tell: it weighs `silhouette_doubt_weight` in the fit (dark paint of a colour weighs 1),
+    and `silhouette_shade_weight` where it is not solid and its patch reaches the silhouette's outline (the shadow
+    beside the vehicle, more likely than a part of it). Darker pixels
     are solid where their texture is below `silhouette_smooth_ratio` of the road's there (darkened alike): a smooth
     body face, unless they form a speck of fewer than `silhouette_min_solid_px` pixels (a deep shadow's compressed
     texture can look smooth here and there). Within `silhouette_edge_band_px` of the outline (inside and out) the share

@@ -324,8 +324,9 @@ class Localizer:
         when its track travelled far enough to tell (else both ways tried, the better overlap kept), its heading held
         at the path's when the vehicle moves; a vehicle without a path heading then refitted without the road's
         shadow around it (`fit.shadow_passes`, `refit_without_shadow`), its outline's pixels weighing the share of them
-        it covers (`fit_weights`; where it meets its shadow, read against the shadowed road); its uncertainty from refitting the other probable models' shapes from the kept start
-        to the same weights, and the path heading's own."""
+        it covers (`fit_weights`; where it meets its shadow, read against the shadowed road); its uncertainty from
+        refitting the other probable models' shapes from the kept start to the same weights, and the path heading's
+        own."""
         camera, metadata = self.calibration.camera, self.classifier.metadata
         order = np.argsort(-probabilities, kind="stable")[: self.params.uncertainty_top_k]
         candidates = [i for i in order if i == order[0] or probabilities[i] >= self.params.uncertainty_min_probability]
