@@ -33,7 +33,7 @@ __all__, __getattr__ = lazy_api(__name__, {
     "placement": ["VehicleBox", "direction_of", "facing", "heading_of"],
     "plate": ["Plate", "PlateParams", "detect_plate", "plate_candidates"],
     "projective": ["HorizonError", "ProjectiveTransform"],
-    "road_shadow": ["RoadShadow", "fit_road_shadow", "refit_without_shadow", "shadow_edge_shares"],
+    "road_shadow": ["RoadShadow", "fit_road_shadow", "refit_without_shadow", "shadow_edge_shares", "undecided_edge"],
     "roi": ["RoiParams", "Silhouette", "VehicleRoiExtractor", "vehicle_silhouette"],
     "silhouette_start": ["silhouette_start_headings_deg"],
     "site": ["Site", "SiteError", "read_site", "site_yaml"],

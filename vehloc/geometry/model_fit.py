@@ -51,6 +51,7 @@ class FitParams:
     shadow_max_evaluations: int
     shadow_edge_band_px: int
     shadow_edge_min_difference: float
+    shadow_edge_undecided_weight: float
 
     def __post_init__(self) -> None:
         check_range("supersample", self.supersample, 1, MAX_SUPERSAMPLE)
@@ -64,6 +65,7 @@ class FitParams:
         check_range("shadow_max_evaluations", self.shadow_max_evaluations, 1, MAX_EVALUATIONS)
         check_range("shadow_edge_band_px", self.shadow_edge_band_px, 0, MAX_SHADOW_EDGE_BAND_PX)
         check_range("shadow_edge_min_difference", self.shadow_edge_min_difference, 0.0, 1.0)
+        check_range("shadow_edge_undecided_weight", self.shadow_edge_undecided_weight, 0.0, 1.0)
 
     @classmethod
     def from_config(cls, **overrides: object) -> FitParams:

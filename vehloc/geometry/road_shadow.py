@@ -139,14 +139,34 @@ def shadow_edge_shares(light_ratio: np.ndarray, shaded: np.ndarray, fitted: np.n
     return share
 
 
+def undecided_edge(light_ratio: np.ndarray, outside: np.ndarray, fitted: np.ndarray, band_px: int,
+                   max_difference: float, min_darkening: float) -> np.ndarray:
+    """The pixels within `band_px` of the outline of `fitted` (the fitted shape's pixels; inside and out) that are
+    `outside` the silhouette, darker than the road by at least `min_darkening` (`light_ratio`), and whose light ratio
+    is within `max_difference` of the vehicle's beside them (the nearest pixel deeper inside, as `edge_coverage`):
+    the vehicle's face in shade or its shadow, which neither the silhouette nor a light mix tells apart (bool)."""
+    undecided = np.zeros(light_ratio.shape, bool)
+    pairs = band_and_inner(fitted, band_px)
+    if pairs is None:
+        return undecided
+    band_rows, band_cols, inner_row, inner_col = pairs
+    ratio = light_ratio[band_rows, band_cols]
+    alike = ((ratio <= 1.0 - min_darkening) & outside[band_rows, band_cols]
+             & (np.abs(ratio - light_ratio[inner_row, inner_col]) < max_difference))
+    undecided[band_rows[alike], band_cols[alike]] = True
+    return undecided
+
+
 def refit_without_shadow(camera: PinholeCamera, silhouette: Silhouette, roi: Box, shape: VehicleShape, fit: ModelFit,
                          params: FitParams) -> tuple[ModelFit, np.ndarray]:
     """`params.shadow_passes` times: the road's shadow fitted around `fit`'s pose, the silhouette's doubtful pixels
     it explains taken out of the fit's weights (the outline's shares in place: `Silhouette.weights_at_edges`), those
     near the fitted outline, and the pixels there that the shadow darkens (by `params.shadow_min_darkening` or more:
     their colour's share, read against the unshadowed road, does not hold), weighing the share of them the vehicle
-    covers against the shadowed road (`shadow_edge_shares`, with `params.shadow_edge_band_px`), and the vehicle
-    refitted from that pose (facing as it does); the last fit and the weights it was fitted to."""
+    covers against the shadowed road (`shadow_edge_shares`, with `params.shadow_edge_band_px`), those there outside the
+    silhouette whose share is not so read and whose light is the vehicle's beside them weighing
+    `params.shadow_edge_undecided_weight` (`undecided_edge`), and the vehicle refitted from that pose (facing as it
+    does); the last fit and the weights it was fitted to."""
     ratio = light_ratio_smoothed(silhouette.light_ratio)
     weights = shared = silhouette.weights_at_edges()
     refit_params = replace(params, try_reversed=False)
@@ -162,6 +182,10 @@ def refit_without_shadow(camera: PinholeCamera, silhouette: Silhouette, roi: Box
             edge = shadow_edge_shares(silhouette.light_ratio, shaded, fitted, 1.0 - shade,
                                       params.shadow_edge_band_px, params.shadow_edge_min_difference)
             weights = np.where(np.isnan(edge), weights, edge)
+            undecided = np.isnan(edge) & undecided_edge(silhouette.light_ratio, ~silhouette.mask, fitted,
+                                                        params.shadow_edge_band_px, params.shadow_edge_min_difference,
+                                                        params.shadow_min_darkening)
+            weights = np.where(undecided, params.shadow_edge_undecided_weight, weights)
         refit = fit_model(camera, weights, roi, shape, fit.box, refit_params)
         fit = replace(refit, evaluations=fit.evaluations + refit.evaluations)
     return fit, weights
