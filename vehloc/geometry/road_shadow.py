@@ -7,7 +7,8 @@ light, soft-edged and uniformly dark (`RoadShadow`). It is fitted to the light r
 pixels outside the vehicle's projected shape (`fit_road_shadow`), and the doubtful pixels whose ratio it explains are
 the shadow; the others, whose light it does not explain, are the vehicle's (`shadow_pixels`). Where the vehicle meets
 its shadow, an outline pixel's light mixes the vehicle's and the shadowed road's in proportion to the share of it each
-covers, which it gives back (`shadow_edge_shares`)."""
+covers, which it gives back (`shadow_edge_shares`); a pixel there outside the silhouette whose light is the vehicle's
+beside it, and that no mix can read, may be its face in shade or its shadow (`undecided_edge`)."""
 
 from __future__ import annotations
 
