@@ -69,12 +69,17 @@ def test_the_fit_recovers_a_known_shadow_from_the_light_ratio():
     assert explained[in_shadow].mean() > 0.9
 
 
+def car_and_lower_third() -> tuple[np.ndarray, np.ndarray]:
+    """The car's pixels in the ROI, and the rows of its lower third (a column, to broadcast)."""
+    car = silhouette(CAMERA, SHAPE, TRUTH, ROI, 1)
+    rows = np.nonzero(car.any(axis=1))[0]
+    return car, np.arange(car.shape[0])[:, None] >= rows[0] + 2 * (rows[-1] - rows[0]) // 3
+
+
 def shadowed_silhouette() -> Silhouette:
     """A light car (ratio 1.5) whose lower third is black (ratio 0.15, doubtful) and its shadow beside it
     (doubtful), both weighing 0.5, as the silhouette weighs what is only darker than the road."""
-    car = silhouette(CAMERA, SHAPE, TRUTH, ROI, 1)
-    rows = np.nonzero(car.any(axis=1))[0]
-    lower_rows = np.arange(car.shape[0])[:, None] >= rows[0] + 2 * (rows[-1] - rows[0]) // 3
+    car, lower_rows = car_and_lower_third()
     lower = car & lower_rows
     shadow = (darkening(CAMERA, TRUTH, ROI, SHADOW) > 0.1) & ~car
     mask = car | shadow
@@ -139,9 +144,7 @@ def grey_face_silhouette(lost_px: int) -> Silhouette:
     """A car whose lower third is a grey face in shade (light ratio 0.6: only darker than the road, doubtful), with no
     shadow on the road; the silhouette lost that face's pixels within `lost_px` of the car's outline, as the texture
     test's window, reaching onto the road, loses them."""
-    car = silhouette(CAMERA, SHAPE, TRUTH, ROI, 1)
-    rows = np.nonzero(car.any(axis=1))[0]
-    lower_rows = np.arange(car.shape[0])[:, None] >= rows[0] + 2 * (rows[-1] - rows[0]) // 3
+    car, lower_rows = car_and_lower_third()
     kept = cv2.erode(car.view(np.uint8), np.ones((2 * lost_px + 1,) * 2, np.uint8)) > 0
     mask = car & (kept | ~lower_rows)
     doubtful = mask & lower_rows
