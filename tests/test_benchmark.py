@@ -15,7 +15,7 @@ from hydra import compose, initialize_config_dir
 from omegaconf import OmegaConf
 
 from vehloc.benchmark.cases import COLOUR_GROUPS, colour_group, draw_case, in_view
-from vehloc.benchmark.report import view_of, with_groups, write_report
+from vehloc.benchmark.report import gate_lines, view_of, wilson_interval_pct, with_groups, write_report
 from vehloc.benchmark.runner import run_case, true_box
 from vehloc.benchmark.suite import BenchmarkSettings, failed_row, run_benchmark, short_reason
 from vehloc.benchmark.visibility import VisibilityParams, visibility
@@ -112,6 +112,26 @@ def test_the_view_is_the_angle_between_the_front_and_the_camera(heading_deg: flo
     row = pd.Series({"x_mm": 0.0, "y_mm": 10000.0, "camera_x_mm": 0.0, "camera_y_mm": -6000.0,
                      "heading_deg": heading_deg})
     assert view_of(row) == view
+
+
+@pytest.mark.parametrize("successes, cases", [(158, 199), (0, 24), (24, 24), (5, 10), (1, 2)])
+def test_a_gate_rate_carries_the_wilson_interval(successes: int, cases: int):
+    """The interval agrees with scipy's Wilson interval within 0.01 points (it takes z = 1.96, scipy the exact
+    quantile) and holds the rate."""
+    from scipy.stats import binomtest
+
+    expected = binomtest(successes, cases).proportion_ci(0.95, method="wilson")
+    low, high = wilson_interval_pct(successes, cases)
+    assert low == pytest.approx(100 * expected.low, abs=0.01) and high == pytest.approx(100 * expected.high, abs=0.01)
+    assert low <= 100 * successes / cases <= high
+
+
+def test_the_gate_table_shows_each_rate_with_its_interval():
+    """Seven fits within of eight: 87.5 %, its interval 52.9-97.8 % (Wilson, 95 %), below the 95 % bar."""
+    frame = pd.DataFrame({"split": ["dev"] * 8, "localized": [True] * 8, "fit_within": [True] * 7 + [False],
+                          "key_points_found": [np.nan] * 8, "paper_within": [np.nan] * 8})
+    fit_line = next(line for line in gate_lines(frame) if "model fit" in line)
+    assert "| 8 | 87.5 % | 52.9-97.8 % | 95 % | no |" in fit_line
 
 
 def test_a_case_that_raised_is_a_row_and_the_report_is_still_written(settings: BenchmarkSettings, tmp_path: Path):

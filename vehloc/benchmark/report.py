@@ -28,6 +28,19 @@ DISTANCE_BANDS_M = (5, 10, 20, 30, 40)
 RESOLUTION_BANDS_MM_PER_PX = (0, 25, 50, 100, 200, 10_000)
 """Bands of the road's resolution at the car (mm one pixel spans there, in its worst direction): 1 % of a car's
 diagonal is about 50 mm, so beyond 50 mm/px the fit's bar is finer than a pixel."""
+INTERVAL_Z = 1.96
+"""The gates' rates carry their 95 % interval (normal quantile 1.96): a rate over 200 cases is known to a few points."""
+
+
+def wilson_interval_pct(successes: int, cases: int, z: float = INTERVAL_Z) -> tuple[float, float]:
+    """The Wilson score interval (per cent) of a rate of `successes` in `cases`: where the rate over many more cases
+    of the same draw would lie, at the confidence of the normal quantile `z`; (0, 100) for no cases."""
+    if cases == 0:
+        return 0.0, 100.0
+    rate = successes / cases
+    centre = (rate + z * z / (2 * cases)) / (1 + z * z / cases)
+    half = z / (1 + z * z / cases) * np.sqrt(rate * (1 - rate) / cases + z * z / (4 * cases * cases))
+    return 100.0 * max(float(centre - half), 0.0), 100.0 * min(float(centre + half), 1.0)
 
 
 def view_angle_deg(row: pd.Series) -> float:
@@ -88,14 +101,15 @@ def rates(frame: pd.DataFrame, by: Sequence[str]) -> pd.DataFrame:
 
 
 def gate_lines(frame: pd.DataFrame) -> list[str]:
-    """Per split, each gate's rate against its bar."""
-    lines = ["| split | gate | cases | rate | bar | met |", "|---|---|---|---|---|---|"]
+    """Per split, each gate's rate with its 95 % interval against its bar."""
+    lines = ["| split | gate | cases | rate | 95 % interval | bar | met |", "|---|---|---|---|---|---|---|"]
     for split, group in frame.groupby("split", sort=False):
         for gate, title in GATES.items():
             values = group[gate].dropna()
             rate = 100.0 * values.mean() if len(values) else float("nan")
-            lines.append(f"| {split} | {title} | {len(values)} | {rate:.1f} % | {BARS[gate]:.0f} % | "
-                         f"{'yes' if rate >= BARS[gate] else 'no'} |")
+            low, high = wilson_interval_pct(int(values.sum()), len(values))
+            lines.append(f"| {split} | {title} | {len(values)} | {rate:.1f} % | {low:.1f}-{high:.1f} % | "
+                         f"{BARS[gate]:.0f} % | {'yes' if rate >= BARS[gate] else 'no'} |")
     return lines
 
 
