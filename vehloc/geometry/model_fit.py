@@ -52,6 +52,8 @@ class FitParams:
     shadow_edge_band_px: int
     shadow_edge_min_difference: float
     shadow_edge_undecided_weight: float
+    shadow_restart_mm: float
+    shadow_restart_below: float
 
     def __post_init__(self) -> None:
         check_range("supersample", self.supersample, 1, MAX_SUPERSAMPLE)
@@ -66,6 +68,8 @@ class FitParams:
         check_range("shadow_edge_band_px", self.shadow_edge_band_px, 0, MAX_SHADOW_EDGE_BAND_PX)
         check_range("shadow_edge_min_difference", self.shadow_edge_min_difference, 0.0, 1.0)
         check_range("shadow_edge_undecided_weight", self.shadow_edge_undecided_weight, 0.0, 1.0)
+        check_range("shadow_restart_mm", self.shadow_restart_mm, 0.0)
+        check_range("shadow_restart_below", self.shadow_restart_below, 0.0, 1.0)
 
     @classmethod
     def from_config(cls, **overrides: object) -> FitParams:

@@ -5,9 +5,11 @@ dark paint); the silhouette cannot tell them apart pixel by pixel and weighs the
 the road's darkening is smooth, so a few numbers model it: the footprint on the road, grown and shifted away from the
 light, soft-edged and uniformly dark (`RoadShadow`). It is fitted to the light ratio (frame over background) of the
 pixels outside the vehicle's projected shape (`fit_road_shadow`), and the doubtful pixels whose ratio it explains are
-the shadow; the others, whose light it does not explain, are the vehicle's (`shadow_pixels`). Where the vehicle meets
-its shadow, an outline pixel's light mixes the vehicle's and the shadowed road's in proportion to the share of it each
-covers, which it gives back (`shadow_edge_shares`); a pixel there outside the silhouette whose light is the vehicle's
+the shadow; the others, whose light it does not explain, are the vehicle's (`shadow_pixels`). A grey vehicle on a grey
+road can be refitted to a pose off along the line of sight that overlaps its weights as well; its fitted shadow then
+leaves the doubtful pixels outside it unexplained (`unexplained_outside`), and the refit is started again from either
+side (`refit_with_restarts`). Where the vehicle meets its shadow, an outline pixel's light mixes the vehicle's and
+the shadowed road's in proportion to the share of it each covers, which it gives back (`shadow_edge_shares`); a pixel there outside the silhouette whose light is the vehicle's
 beside it, and that no mix can read, may be its face in shade or its shadow (`undecided_edge`)."""
 
 from __future__ import annotations
@@ -36,6 +38,10 @@ CAR_MARGIN_PX = 2
 """The vehicle's projected shape grown by this before its pixels are left out of the shadow's fit."""
 START_OFFSETS_MM = ((0.0, 0.0), (300.0, 0.0), (-300.0, 0.0), (0.0, 300.0), (0.0, -300.0))
 """Where the shadow's fit starts: under the vehicle and shifted each way along the road."""
+RESTART_MAX_SHARE = 0.5
+"""A restarted refit is kept where it leaves at most this share of the first answer's unexplained doubtful pixels ..."""
+RESTART_MIN_PX = 30
+"""... and at least this many fewer (a few pixels more or less are noise, not another fixed point)."""
 START_GROWTH, START_STRENGTH, START_BLUR_FRACTION = 1.05, 0.5, 0.02
 STEP_MM, STEP_GROWTH, STEP_STRENGTH, STEP_BLUR_FRACTION = 200.0, 0.05, 0.1, 0.01
 MIN_GROWTH, MAX_STRENGTH, MIN_BLUR_PX = 0.5, 0.95, 0.3
@@ -190,3 +196,40 @@ def refit_without_shadow(camera: PinholeCamera, silhouette: Silhouette, roi: Box
         refit = fit_model(camera, weights, roi, shape, fit.box, refit_params)
         fit = replace(refit, evaluations=fit.evaluations + refit.evaluations)
     return fit, weights
+
+
+def unexplained_outside(camera: PinholeCamera, silhouette: Silhouette, roi: Box, shape: VehicleShape, box: VehicleBox,
+                        ratio: np.ndarray, params: FitParams) -> tuple[int, int]:
+    """The silhouette's doubtful pixels outside the shape at `box`, and how many of them the road's shadow fitted
+    around `box` leaves unexplained (their smoothed light `ratio` more than `params.shadow_ratio_tolerance` from its)."""
+    shadow = fit_road_shadow(camera, shape, box, roi, ratio, params.shadow_grid_px, params.shadow_max_evaluations)
+    lit = 1.0 - darkening(camera, box, roi, shadow)
+    outside = silhouette.doubtful & (coverage(camera, shape, box, roi, 1) < 0.5)
+    return int(outside.sum()), int((outside & (np.abs(ratio - lit) >= params.shadow_ratio_tolerance)).sum())
+
+
+def refit_with_restarts(camera: PinholeCamera, silhouette: Silhouette, roi: Box, shape: VehicleShape, fit: ModelFit,
+                        params: FitParams) -> tuple[ModelFit, np.ndarray]:
+    """`refit_without_shadow` from `fit`; where the shadow fitted around its answer explains less than
+    `params.shadow_restart_below` of the doubtful pixels outside the vehicle, also from `fit` moved
+    `params.shadow_restart_mm` each way along the line of sight, a restart's answer kept where it leaves at most
+    `RESTART_MAX_SHARE` of the first's unexplained pixels and `RESTART_MIN_PX` fewer (the fewest of the restarts);
+    the kept fit (with every refit's evaluations) and the weights it was fitted to."""
+    refit, weights = refit_without_shadow(camera, silhouette, roi, shape, fit, params)
+    if params.shadow_restart_mm <= 0 or params.shadow_passes == 0:
+        return refit, weights
+    ratio = light_ratio_smoothed(silhouette.light_ratio)
+    outside, unexplained = unexplained_outside(camera, silhouette, roi, shape, refit.box, ratio, params)
+    if outside == 0 or outside - unexplained >= params.shadow_restart_below * outside:
+        return refit, weights
+    sight = fit.box.centre_mm - camera.centre_mm[:2]
+    sight = sight / np.linalg.norm(sight)
+    kept, evaluations, fewest = (refit, weights), refit.evaluations, unexplained
+    for sign in (-1.0, 1.0):
+        start = replace(fit, box=replace(fit.box, centre_mm=fit.box.centre_mm + sign * params.shadow_restart_mm * sight))
+        again, again_weights = refit_without_shadow(camera, silhouette, roi, shape, start, params)
+        evaluations += again.evaluations
+        left = unexplained_outside(camera, silhouette, roi, shape, again.box, ratio, params)[1]
+        if left <= RESTART_MAX_SHARE * unexplained and unexplained - left >= RESTART_MIN_PX and left < fewest:
+            kept, fewest = (again, again_weights), left
+    return replace(kept[0], evaluations=evaluations), kept[1]

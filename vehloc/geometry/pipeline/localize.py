@@ -32,7 +32,7 @@ from vehloc.geometry.model_fit import best_start, fit_model
 from vehloc.geometry.motion import PathHeading
 from vehloc.geometry.placement import VehicleBox, axis_difference_deg, between_axles, direction_of, facing
 from vehloc.geometry.outcome import NotPlaced, ReasonCode
-from vehloc.geometry.road_shadow import refit_without_shadow
+from vehloc.geometry.road_shadow import refit_with_restarts
 from vehloc.geometry.roi import Silhouette, VehicleRoiExtractor
 from vehloc.geometry.silhouette_start import silhouette_start_headings_deg
 from vehloc.geometry.camera_calibration import CameraCalibration
@@ -323,7 +323,7 @@ class Localizer:
         placement, or the starts without key points), the best overlap kept, facing the way a stopped vehicle came
         when its track travelled far enough to tell (else both ways tried, the better overlap kept), its heading held
         at the path's when the vehicle moves; a vehicle without a path heading then refitted without the road's
-        shadow around it (`fit.shadow_passes`, `refit_without_shadow`), its outline's pixels weighing the share of them
+        shadow around it (`fit.shadow_passes`, `refit_with_restarts`), its outline's pixels weighing the share of them
         it covers (`fit_weights`; where it meets its shadow, read against the shadowed road); its uncertainty from
         refitting the other probable models' shapes from the kept start to the same weights, and the path heading's
         own."""
@@ -346,7 +346,7 @@ class Localizer:
                  for start in starts]  # a stopped vehicle faces the way it came: only that is fitted
         first, start = max(tried, key=lambda pair: pair[0].iou)
         if motion is None:  # a moving vehicle's heading is its path's, and its records many: no shadow refit
-            first, weights = refit_without_shadow(camera, silhouette, roi, shape, first, params)
+            first, weights = refit_with_restarts(camera, silhouette, roi, shape, first, params)
         fits = [first] + [  # the other models start facing the way the predicted one was fitted: front and rear are settled
             fit_model(camera, weights, roi, metadata.shape_of(spec.model_id), begin_at(start, spec, first.box.heading_deg),
                       replace(self.fit_params, try_reversed=False), fit_heading=motion is None)
