@@ -223,12 +223,14 @@ def refit_with_restarts(camera: PinholeCamera, silhouette: Silhouette, roi: Box,
     if outside == 0 or outside - unexplained >= params.shadow_restart_below * outside:
         return refit, weights
     sight = fit.box.centre_mm - camera.centre_mm[:2]
+    if not np.linalg.norm(sight) > 0:  # under the camera: no line of sight along the road
+        return refit, weights
     sight = sight / np.linalg.norm(sight)
     kept, evaluations, fewest = (refit, weights), refit.evaluations, unexplained
     for sign in (-1.0, 1.0):
         start = replace(fit, box=replace(fit.box, centre_mm=fit.box.centre_mm + sign * params.shadow_restart_mm * sight))
         again, again_weights = refit_without_shadow(camera, silhouette, roi, shape, start, params)
-        evaluations += again.evaluations
+        evaluations += again.evaluations - fit.evaluations
         left = unexplained_outside(camera, silhouette, roi, shape, again.box, ratio, params)[1]
         if left <= RESTART_MAX_SHARE * unexplained and unexplained - left >= RESTART_MIN_PX and left < fewest:
             kept, fewest = (again, again_weights), left
