@@ -199,7 +199,6 @@ def test_no_shadow_passes_leave_the_fit_as_it_is():
     assert np.array_equal(weights, weighed.weights_at_edges(), equal_nan=True)
 
 
-
 def moved_along_sight(box: VehicleBox, distance_mm: float) -> VehicleBox:
     """`box` moved `distance_mm` along the line of sight from the camera's foot (positive: away from the camera)."""
     sight = box.centre_mm - CAMERA.centre_mm[:2]

@@ -9,8 +9,9 @@ the shadow; the others, whose light it does not explain, are the vehicle's (`sha
 road can be refitted to a pose off along the line of sight that overlaps its weights as well; its fitted shadow then
 leaves the doubtful pixels outside it unexplained (`unexplained_outside`), and the refit is started again from either
 side (`refit_with_restarts`). Where the vehicle meets its shadow, an outline pixel's light mixes the vehicle's and
-the shadowed road's in proportion to the share of it each covers, which it gives back (`shadow_edge_shares`); a pixel there outside the silhouette whose light is the vehicle's
-beside it, and that no mix can read, may be its face in shade or its shadow (`undecided_edge`)."""
+the shadowed road's in proportion to the share of it each covers, which it gives back (`shadow_edge_shares`); a pixel
+there outside the silhouette whose light is the vehicle's beside it, and that no mix can read, may be its face in shade
+or its shadow (`undecided_edge`)."""
 
 from __future__ import annotations
 
