@@ -4,8 +4,10 @@ its development seeds, localized end to end, holds the rates it reached (a regre
 
 from __future__ import annotations
 
+import hashlib
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +18,7 @@ from omegaconf import OmegaConf
 
 from vehloc.benchmark.cases import COLOUR_GROUPS, colour_group, draw_case, in_view
 from vehloc.benchmark.report import gate_lines, view_of, wilson_interval_pct, with_groups, write_report
-from vehloc.benchmark.runner import run_case, true_box
+from vehloc.benchmark.runner import STOP_LOOKAHEAD_FRAMES, localize_stopped_car, run_case, true_box
 from vehloc.benchmark.suite import BenchmarkSettings, failed_row, run_benchmark, short_reason
 from vehloc.benchmark.visibility import VisibilityParams, visibility
 from vehloc.config import ConfigError, config_dir
@@ -24,7 +26,8 @@ from vehloc.geometry.placement import heading_difference_deg
 from vehloc.synth.catalog import CATALOG, model_by_id
 from vehloc.synth.render import CarPose
 from vehloc.synth.road import RoadLayout
-from vehloc.synth.scene import CameraSpec
+from vehloc.geometry.pipeline.video import iter_frames
+from vehloc.synth.scene import CameraSpec, write_video
 
 PROJECT_ROOT = Path(__file__).resolve().parents[1]
 GATE_SEEDS = 24
@@ -214,6 +217,39 @@ def test_a_whole_car_whose_shadow_alone_reaches_the_frame_edge_is_localized(sett
     row = run_case(case, "dev", settings.site, camera, settings.draw, settings.visibility, settings.localize).row
     assert row["localized"] and row["reason_code"] == "", row["reason"]
     assert row["fit_position_pct"] <= 1.0 and row["fit_heading_deg"] <= 1.0
+
+
+class FrameLog:
+    """Stands in for the localizer: keeps each frame's index and digest, and makes no record."""
+
+    def __init__(self) -> None:
+        self.frames: list[tuple[int, str]] = []
+
+    def process(self, frame_index: int, frame_bgr: np.ndarray) -> list:
+        self.frames.append((frame_index, hashlib.sha1(frame_bgr.tobytes()).hexdigest()))
+        return []
+
+
+def test_a_case_with_no_stop_record_by_the_lookahead_reads_every_frame_of_the_whole_scene_once(
+        settings: BenchmarkSettings, tmp_path: Path):
+    """Development seed 81 on a 320 x 180 camera, and no record: the localizer is given the whole scene's frames once
+    each, in order, and the same as the whole scene's video decodes, though the first STOP_LOOKAHEAD_FRAMES past the
+    stop came from a shorter video written first."""
+    case = draw_case(81, settings.cameras, RoadLayout(**settings.site["layout"]), settings.draw)
+    full = settings.cameras[case.camera_name]
+    small = replace(full, focal_px=full.focal_px / 4, width_px=full.width_px // 4, height_px=full.height_px // 4)
+    spec = case.scene_spec(settings.site, small, settings.draw)
+    log, folder = FrameLog(), tmp_path / "case"
+    folder.mkdir()
+    run = localize_stopped_car(spec, log, folder)  # type: ignore[arg-type]
+    write_video(spec, tmp_path / "whole.avi")
+    whole = [(index, hashlib.sha1(frame.tobytes()).hexdigest())
+             for index, frame in enumerate(iter_frames(tmp_path / "whole.avi"))]
+    first_part = spec.stop_frame(spec.cars[0]) + STOP_LOOKAHEAD_FRAMES
+    assert run.record is None and run.frames == spec.frame_count == len(whole) > first_part
+    assert log.frames == whole
+    assert sorted(path.name for path in folder.iterdir()) == [
+        f"{spec.name}_{first_part}.avi", f"{spec.name}_{spec.frame_count}.avi"]
 
 
 def test_a_car_without_plates_differs_from_one_with_them_only_where_its_plate_is():

@@ -16,7 +16,7 @@ from vehloc.config import ConfigError
 from vehloc.geometry.projective import ProjectiveTransform
 from vehloc.geometry.pipeline.video import iter_frames
 from vehloc.synth.body import build_car_mesh
-from vehloc.synth.noise import SensorNoise
+from vehloc.synth.noise import SensorNoise, uniform_16bit
 from vehloc.synth.render import CarPose, Lighting, plates_seen, render_car
 from vehloc.synth.road import render_road
 from vehloc.synth.scene import SceneSpec, car_pose_at, draw_cars, render_frames, write_scene
@@ -235,3 +235,17 @@ def test_scene_site_guess_is_close_to_the_truth() -> None:
     error_px = site.initial_transform()(world) - truth(world)
     assert np.all(np.linalg.norm(error_px, axis=1) < 10.0)
     assert len(site.markers) == sum(m.has_corners for m in spec.layout.markers())
+
+
+@pytest.mark.parametrize("pending_halves", [0, 1])
+@pytest.mark.parametrize("shape", [(72, 128, 3), (3, 5)])
+def test_uniform_16bit_draws_are_the_generators_own(pending_halves: int, shape: tuple[int, ...]) -> None:
+    """Exactly `Generator.integers(0, 65536, dtype=np.uint16)`'s draws, twice, and the same draws after them, with
+    and without a 32-bit half pending and with a count that is (72 x 128 x 3) or is not (3 x 5) a multiple of four."""
+    drawn, read = np.random.default_rng(11), np.random.default_rng(11)
+    for rng in (drawn, read):
+        rng.integers(0, 2**32, pending_halves, dtype=np.uint32)
+    for _ in range(2):
+        np.testing.assert_array_equal(uniform_16bit(read, shape), drawn.integers(0, 65536, shape, dtype=np.uint16))
+    np.testing.assert_array_equal(read.integers(0, 2**32, 5, dtype=np.uint32),
+                                  drawn.integers(0, 2**32, 5, dtype=np.uint32))

@@ -4,15 +4,31 @@ Adding float noise to an 8-bit frame and truncating gives frame + floor(noise) p
 drawn directly as floor(sigma * z): a 16-bit uniform draw looked up in the inverse normal CDF at the
 centres of 65536 equal-probability bins (tails cut at 4.2 sigma). On a 1280x720 frame this costs about
 a third of drawing float32 normals, which dominated the cost of a scene's frames without a moving car.
+The 16-bit draws are `Generator.integers(0, 65536, dtype=np.uint16)`'s, read four to each 64-bit output of a PCG64
+bit generator at half the cost where that gives the same draws (`uniform_16bit`).
 """
 
 from __future__ import annotations
 
+import math
+import sys
 from statistics import NormalDist
 
 import numpy as np
 
 _LEVELS = 1 << 16
+
+
+def uniform_16bit(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
+    """`rng.integers(0, 65536, shape, dtype=np.uint16)`, the same draws, and the same after them. A PCG64
+    generator with no 32-bit half of an output pending gives them as the little-endian quarters of its 64-bit
+    outputs, which are read straight from it where the count is a multiple of four."""
+    count = math.prod(shape)
+    generator = rng.bit_generator
+    if (count % 4 or sys.byteorder != "little" or not isinstance(generator, np.random.PCG64)
+            or generator.state["has_uint32"]):
+        return rng.integers(0, _LEVELS, shape, dtype=np.uint16)
+    return generator.random_raw(count // 4).view(np.uint16).reshape(shape)
 
 
 class SensorNoise:
@@ -28,7 +44,6 @@ class SensorNoise:
 
     def __call__(self, image: np.ndarray) -> np.ndarray:
         """A new uint8 image: ``image`` plus fresh noise, clipped to 0..255."""
-        draws = self._rng.integers(0, _LEVELS, image.shape, dtype=np.uint16)
-        noisy = np.take(self._steps, draws)
+        noisy = np.take(self._steps, uniform_16bit(self._rng, image.shape))
         noisy += image
         return np.clip(noisy, 0, 255, out=noisy).astype(np.uint8)

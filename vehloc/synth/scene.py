@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import asdict, dataclass
+from itertools import islice
 from pathlib import Path
 from typing import Any
 
@@ -354,16 +355,16 @@ def ground_truth(spec: SceneSpec, boxes: Sequence[Sequence[Box | None]]) -> dict
     }
 
 
-def write_video(spec: SceneSpec, path: Path) -> list[tuple[Box | None, ...]]:
-    """Render the scene into a video file (its `codec`; the container by the path's suffix); return every frame's
-    car boxes."""
+def write_video(spec: SceneSpec, path: Path, frame_count: int | None = None) -> list[tuple[Box | None, ...]]:
+    """Render the scene, or its first `frame_count` frames (the same as the whole scene's), into a video file (its
+    `codec`; the container by the path's suffix); return every written frame's car boxes."""
     size = (spec.camera.width_px, spec.camera.height_px)
     writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*CODECS[spec.codec]), spec.fps, size)
     if not writer.isOpened():
         raise SceneError(f"{path}: OpenCV cannot write {CODECS[spec.codec]} video")
     boxes = []
     try:
-        for frame, frame_boxes in render_frames(spec):
+        for frame, frame_boxes in islice(render_frames(spec), frame_count):
             writer.write(frame)
             boxes.append(frame_boxes)
     finally:
