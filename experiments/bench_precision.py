@@ -16,17 +16,20 @@ import argparse
 import contextlib
 import statistics
 import sys
+import dataclasses
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import hydra
 import pandas as pd
 import torch
+from omegaconf import OmegaConf
 
+from vehloc.config import build_params
 from vehloc.hardware import cpu_info
 from vehloc.train.instantiate import compose_config
 from vehloc.train.module import LitVehicleClassifier
+from vehloc.train.params import ModelParams
 from vehloc.train.precision import resolve_precision
 from vehloc.tables import markdown_table
 from vehloc.train.schedules import build_optimizer, param_groups
@@ -50,13 +53,13 @@ VARIANTS = (
 )
 
 
-def build_model(model_cfg, channels_last: bool) -> LitVehicleClassifier:
+def build_model(model: ModelParams, channels_last: bool) -> LitVehicleClassifier:
     """The experiment's GoogLeNet for 12 classes, from scratch (seed 0: every variant starts alike)."""
     torch.manual_seed(0)
     table = {"class_model_ids": list(range(1, DEMO_CLASSES + 1)), "class_makes": ["make"] * DEMO_CLASSES,
              "class_models": [f"model {i}" for i in range(DEMO_CLASSES)],
              "class_dims_mm": [[4500.0, 1800.0, 1450.0]] * DEMO_CLASSES}
-    return hydra.utils.instantiate(model_cfg, **table, channels_last=channels_last, _convert_="all")
+    return LitVehicleClassifier.from_params(dataclasses.replace(model, channels_last=channels_last), **table)
 
 
 def step_seconds(model: LitVehicleClassifier, optimizer: torch.optim.Optimizer, batch: tuple, bf16_autocast: bool,
@@ -99,11 +102,12 @@ def main(argv: list[str] | None = None) -> int:
     print(f"trainer.precision=auto picks {auto.resolved} here: {auto.reason}")
 
     runs = {}
+    model_params = build_params(ModelParams, OmegaConf.to_container(cfg.model, resolve=True), "model")
     for variant in VARIANTS:
-        model = build_model(cfg.model, variant.channels_last)
-        opt = dict(cfg.model.optimizer)
+        model = build_model(model_params, variant.channels_last)
+        opt = dict(model.hparams.optimizer)
         groups = param_groups(model.named_parameters(), model.head_prefixes, opt.pop("lr_backbone"),
-                              opt.pop("lr_head"), opt.pop("weight_decay", 0.0))
+                              opt.pop("lr_head"), opt.pop("weight_decay", 0.0), model.hparams.layer_decay)
         optimizer = build_optimizer(groups, **opt)
         step_seconds(model, optimizer, batch, variant.bf16_autocast, args.warmup)
         runs[variant] = (model, optimizer, [])

@@ -60,8 +60,16 @@ def test_explicit_bf16_on_a_cpu_without_it_runs_as_asked_with_a_warning():
     assert resolve_precision("32-true", "cpu", cpu(AMD_ZEN3)).resolved == "32-true"
 
 
-def test_the_demo_experiment_resolves_auto_for_this_cpu_and_records_it(tmp_path: Path):
-    cfg = compose_config("train", ["experiment=demo", "data.root=unused"], tmp_path)
+@pytest.mark.parametrize("experiment", ["demo", "finetune_cpu", "stanford_cars_12"])
+def test_the_lite0_experiments_train_in_fp32_on_any_cpu(experiment: str, tmp_path: Path):
+    """bf16 autocast slowed Lite0's steps even where bf16 is native (README, Precision): they ask for fp32."""
+    cfg = compose_config("train", [f"experiment={experiment}", "data.root=unused"], tmp_path)
+    assert cfg.trainer.precision == "32-true"
+    assert instantiate_trainer(cfg, [], []).precision == "32-true"
+
+
+def test_the_scratch_experiment_resolves_auto_for_this_cpu_and_records_it(tmp_path: Path):
+    cfg = compose_config("train", ["experiment=demo_googlenet_scratch", "data.root=unused"], tmp_path)
     assert cfg.trainer.precision == "auto"
     trainer = instantiate_trainer(cfg, [], [])
     expected = "bf16-mixed" if cpu_info().native_bf16 else "32-true"
