@@ -3,8 +3,11 @@ fp32 and under CPU bf16 autocast, each with and without channels-last weights, m
 run, with the CPU's model name and flags; and the precision that `trainer.precision=auto` picks here.
 
     .venv/bin/python experiments/bench_precision.py --out outputs/bench_precision
+    .venv/bin/python experiments/bench_precision.py --out outputs/bench_precision_lite0 model=efficientnet_lite0 \
+        model.backbone.pretrained=none data.input_size_px=112 data.batch_size=16 model.frozen_blocks=5   # the demo's
 
-One step is forward (+ both auxiliary heads), loss, backward and an AdamW step on a fixed random batch.
+One step is forward (+ GoogLeNet's auxiliary heads), loss, backward and a step of the experiment's optimizer on a fixed
+random batch.
 Variants alternate within each round (fp32, fp32 + channels-last, bf16, bf16 + channels-last, ...) so that
 a slow spell of the machine hits all of them; the median over rounds is reported, the best beside it.
 Writes `precision.csv` and `precision.md` into `--out`.
@@ -14,9 +17,9 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
 import statistics
 import sys
-import dataclasses
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -54,7 +57,8 @@ VARIANTS = (
 
 
 def build_model(model: ModelParams, channels_last: bool) -> LitVehicleClassifier:
-    """The experiment's GoogLeNet for 12 classes, from scratch (seed 0: every variant starts alike)."""
+    """The experiment's model (GoogLeNet unless overridden) for 12 classes, from scratch (seed 0: every variant
+    starts alike)."""
     torch.manual_seed(0)
     table = {"class_model_ids": list(range(1, DEMO_CLASSES + 1)), "class_makes": ["make"] * DEMO_CLASSES,
              "class_models": [f"model {i}" for i in range(DEMO_CLASSES)],

@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import tempfile
 import time
-from itertools import islice
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass
+from itertools import islice
 from pathlib import Path
 from typing import Any
 
