@@ -43,7 +43,8 @@ PICTURE_MARGIN = 0.6
 STOP_LOOKAHEAD_FRAMES = 10
 """A case's video is first written this many frames past its stop: in every held-out case with a stop record
 (seeds 100000-100199) it came at most 8 frames past the stop, and the frames after it need no rendering, noise or
-encoding."""
+encoding. Where it has not come, the whole scene is written again, not its rest alone: a video begun mid-scene
+encodes its first two frames otherwise (MJPEG at the encoder's own quality)."""
 
 
 @dataclass(frozen=True)
