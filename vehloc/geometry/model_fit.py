@@ -38,6 +38,7 @@ class FitParams:
     """Settings of the model fit (`conf/localize/fit/default.yaml`)."""
 
     supersample: int
+    min_grid_px: int
     start_step_mm: float
     start_step_deg: float
     tolerance_mm: float
@@ -57,6 +58,7 @@ class FitParams:
 
     def __post_init__(self) -> None:
         check_range("supersample", self.supersample, 1, MAX_SUPERSAMPLE)
+        check_range("min_grid_px", self.min_grid_px, 0)
         for name in ("start_step_mm", "start_step_deg", "tolerance_mm", "tolerance_deg"):
             check_range(name, getattr(self, name), 0.0, low_open=True)
         check_range("max_evaluations", self.max_evaluations, 1, MAX_EVALUATIONS)
@@ -70,6 +72,13 @@ class FitParams:
         check_range("shadow_edge_undecided_weight", self.shadow_edge_undecided_weight, 0.0, 1.0)
         check_range("shadow_restart_mm", self.shadow_restart_mm, 0.0)
         check_range("shadow_restart_below", self.shadow_restart_below, 0.0, 1.0)
+
+    def supersample_for(self, roi: Box) -> int:
+        """The grid's multiple of the image resolution over `roi`: `supersample`, or more (up to `MAX_SUPERSAMPLE`)
+        where the ROI's longer side would span fewer than `min_grid_px` grid pixels (a far vehicle, a few dozen pixels
+        long, whose pose is wanted to a fraction of a pixel)."""
+        long_side_px = max(roi.width_px, roi.height_px, 1)
+        return int(min(MAX_SUPERSAMPLE, max(self.supersample, -(-self.min_grid_px // long_side_px))))
 
     @classmethod
     def from_config(cls, **overrides: object) -> FitParams:
@@ -144,7 +153,7 @@ def fit_model(
     (or its reverse)."""
     from scipy.optimize import minimize  # scipy on first use: a refused CLI answers sooner
     params = params or FitParams.from_config()
-    ss = params.supersample
+    ss = params.supersample_for(roi)
     target = np.asarray(weights, dtype=np.float32)
 
     # Nelder-Mead stops on one tolerance for all coordinates: the heading is scaled to make it the angular one

@@ -226,7 +226,7 @@ class Localizer:
         candidates = [replace(box, centre_mm=box.centre_mm + offset * sight)
                       for offset in np.arange(low_mm, high_mm + step_mm / 2, step_mm)]
         return best_start(self.calibration.camera, weights, roi, self.classifier.metadata.shape_of(spec.model_id),
-                          candidates, self.fit_params.supersample)
+                          candidates, self.fit_params.supersample_for(roi))
 
     def body_touches_border(self, box: Box, width_px: int, height_px: int) -> bool:
         """Whether the vehicle's own pixels (its silhouette without the shadow under it) reach within the margin of the
