@@ -17,7 +17,7 @@ from vehloc.synth.render import CarPose, render_car
 
 CAMERA = PinholeCamera.look_at([0.0, -6000.0, 6500.0], [0.0, 9000.0, 0.0], 1000.0, 1280, 720)
 LOW_VERGE = PinholeCamera.look_at([6000.0, 0.0, 5000.0], [0.0, 9000.0, 0.0], 600.0, 1280, 720)
-"""The benchmark's low camera on the right verge, with a wide lens: a car 30-40 m away is 100-150 px long."""
+"""The benchmark's low camera on the right verge, with a wide lens: a car 30-38 m away fills an ROI 104-148 px wide."""
 
 
 def rendered(model_id: int, pose: CarPose) -> tuple[np.ndarray, object]:
@@ -102,11 +102,11 @@ def test_a_small_roi_is_compared_on_a_finer_grid(width_px: int, height_px: int, 
     (9, -1500.0, 34000.0, 30.0), (4, 2000.0, 30000.0, 120.0), (2, -3000.0, 38000.0, 75.0)])
 def test_a_far_vehicle_is_fitted_to_a_fraction_of_a_pixel_on_the_finer_grid(model_id: int, x_mm: float, y_mm: float,
                                                                             heading_deg: float):
-    """A car 30-38 m from the low verge camera (104-148 px long, 250-450 mm a pixel along the road), its weights the
-    exact share of each pixel its shape covers (1/64 steps), fitted from 150 mm and 3 deg off: on the grid of
-    `min_grid_px` 512 (4-5 times the image's) its centre is within 0.3 % of the footprint diagonal and its heading
-    within 0.2 deg (measured 0.06-0.21 % and 0.03-0.13 deg), and nearer than on the image's grid doubled (0.32-0.72 %
-    and 0.18-0.36 deg there)."""
+    """A car 30-38 m from the low verge camera (its ROI 104-148 px wide), its weights the exact share of each pixel
+    its shape covers (1/64 steps), fitted from 150 mm and 3 deg off: on the grid of `min_grid_px` 512 (4-5 times the
+    image's) its centre is within 0.3 % of the footprint diagonal and its heading within 0.2 deg (measured
+    0.06-0.21 % and 0.03-0.13 deg), and nearer than on the image's grid doubled (0.32-0.72 % and 0.18-0.36 deg
+    there)."""
     model = model_by_id(model_id)
     shape = VehicleShape(convex_parts_car_mm(model))
     truth = VehicleBox(np.array([x_mm, y_mm]), heading_deg, model.length_mm, model.width_mm)
