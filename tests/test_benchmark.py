@@ -22,11 +22,11 @@ from vehloc.benchmark.runner import STOP_LOOKAHEAD_FRAMES, localize_stopped_car,
 from vehloc.benchmark.suite import BenchmarkSettings, failed_row, run_benchmark, short_reason
 from vehloc.benchmark.visibility import VisibilityParams, visibility
 from vehloc.config import ConfigError, config_dir
+from vehloc.geometry.pipeline.video import iter_frames
 from vehloc.geometry.placement import heading_difference_deg
 from vehloc.synth.catalog import CATALOG, model_by_id
 from vehloc.synth.render import CarPose
 from vehloc.synth.road import RoadLayout
-from vehloc.geometry.pipeline.video import iter_frames
 from vehloc.synth.scene import CameraSpec, write_video
 
 PROJECT_ROOT = Path(__file__).resolve().parents[1]
