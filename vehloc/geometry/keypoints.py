@@ -11,8 +11,9 @@ small, far car), is not taken: the best candidate that can be a plate is. A smal
 outline, not found on the edges) gives way to two wheels. The wheel branch, when
 no plate is taken: the two near tyres' contacts on the side line l_S (the outer faces' contacts with the
 road, where l_S touches the tyres; taken from the tyres themselves, as a shadow beside the car can push the
-silhouette's l_S outwards; l_S's direction is the one from contact to contact), Q their middle on the road,
-C perpendicular to l_S, into the vehicle; the box's near side is stuck to Q_W between the axles with its
+silhouette's l_S outwards; l_S's direction is the one from contact to contact, their road points held the
+predicted model's wheelbase apart where `wheels.hold_wheelbase`), Q their middle on the road, C perpendicular to
+l_S, into the vehicle; the box's near side is stuck to Q_W between the axles with its
 short centreline along Q_W C_W. Where one wheel is found (`wheels.one_wheel`), Q lies half the predicted model's
 wheelbase from its contact along l_S, on the side the body reaches to, and l_S gives the direction (branch `wheel`).
 """
@@ -256,10 +257,32 @@ def _wheel_placement(
                                                    f"{'' if not_a_plate is None else '; ' + not_a_plate})")
     contacts_px = np.array([w.outer_contact_px for w in wheels.wheels])
     contacts_mm = road_to_image.inverse.map_visible(contacts_px, "tyre contact")
+    if params.wheels.hold_wheelbase and spec.wheelbase_mm:
+        contacts_mm = held_at_wheelbase(contacts_px, contacts_mm, road_to_image, spec.wheelbase_mm)
     q_mm = contacts_mm.mean(axis=0)
     into = inward(heading_of(contacts_mm[1] - contacts_mm[0]) + 90.0, q_mm, foot)
     box = place_on_side(q_mm, into, spec.length_mm, spec.width_mm)
     return Placement(box, "wheels", q_mm, q_mm + C_DISTANCE_MM * into, float(np.linalg.norm(contacts_mm[1] - contacts_mm[0])))
+
+
+def held_at_wheelbase(contacts_px: np.ndarray, contacts_mm: np.ndarray, road_to_image: ProjectiveTransform,
+                      wheelbase_mm: float) -> np.ndarray:
+    """Two tyre contacts' road points (2, 2) held `wheelbase_mm` apart: the pair whose images lie nearest the measured
+    contacts (`contacts_px`, least squares in pixels), from their road points as measured (`contacts_mm`). A pixel
+    of error along the line of sight moves a far contact's road point many times as far as one across it; the
+    wheelbase leaves the pair's direction to the pixels across it, which hold it."""
+    from scipy.optimize import least_squares  # scipy on first use, as the model fit
+
+    def pair_mm(values: np.ndarray) -> np.ndarray:
+        half = wheelbase_mm / 2 * np.array([np.cos(values[2]), np.sin(values[2])])
+        return np.stack([values[:2] - half, values[:2] + half])
+
+    def residuals_px(values: np.ndarray) -> np.ndarray:
+        return (road_to_image(pair_mm(values)) - contacts_px).ravel()
+
+    along = contacts_mm[1] - contacts_mm[0]
+    start = np.array([*contacts_mm.mean(axis=0), np.arctan2(along[1], along[0])])
+    return pair_mm(least_squares(residuals_px, start, x_scale=[100.0, 100.0, 0.01]).x)
 
 
 def one_wheel_placement(contact_px: np.ndarray, length_heading_deg: float, mask: np.ndarray, offset: np.ndarray,

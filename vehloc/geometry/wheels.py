@@ -43,6 +43,7 @@ class WheelParams:
     spoked_rims: bool
     one_wheel: bool
     one_wheel_margin_fraction: float
+    hold_wheelbase: bool
     tyre_to_rim_range: tuple[float, float]
     min_dark_tyre: float
     tyre_end_contrast: float
