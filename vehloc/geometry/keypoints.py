@@ -268,7 +268,7 @@ def _wheel_placement(
 def held_at_wheelbase(contacts_px: np.ndarray, contacts_mm: np.ndarray, road_to_image: ProjectiveTransform,
                       wheelbase_mm: float) -> np.ndarray:
     """Two tyre contacts' road points (2, 2) held `wheelbase_mm` apart: the pair whose images lie nearest the measured
-    contacts (`contacts_px`, least squares in pixels), from their road points as measured (`contacts_mm`). A pixel
+    contacts (`contacts_px`, least squares in pixels), started from their road points as read (`contacts_mm`). A pixel
     of error along the line of sight moves a far contact's road point many times as far as one across it; the
     wheelbase leaves the pair's direction to the pixels across it, which hold it."""
     from scipy.optimize import least_squares  # scipy on first use, as the model fit
