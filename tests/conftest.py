@@ -1,4 +1,5 @@
-"""Shared fixtures: paths to the real data beside the project and a tiny CompCars-format root."""
+"""Shared fixtures: paths to the real data beside the project, a tiny CompCars-format root and the benchmark's low
+verge camera."""
 
 from __future__ import annotations
 
@@ -27,9 +28,13 @@ from vehloc.data.boxes import Box  # noqa: E402
 from vehloc.data.compcars import write_label, write_split_list  # noqa: E402
 from vehloc.data.matfile import write_make_model_names  # noqa: E402
 from vehloc.data.specs import VehicleSpec, write_specs_csv  # noqa: E402
+from vehloc.geometry.camera import PinholeCamera  # noqa: E402
 
 PROJECT_ROOT = Path(__file__).resolve().parents[1]
 SHARED_DATA = PROJECT_ROOT.parent / "shared" / "data"
+LOW_VERGE = PinholeCamera.look_at([6000.0, 0.0, 5000.0], [0.0, 9000.0, 0.0], 600.0, 1280, 720)
+"""The localization benchmark's low camera: 5 m high on the right verge, a wide lens (f 600 px) looking down the road;
+a car 30-38 m away fills an ROI 104-148 px wide."""
 
 
 @pytest.fixture(scope="session")

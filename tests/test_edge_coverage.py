@@ -7,9 +7,9 @@ import cv2
 import numpy as np
 import pytest
 
+from conftest import LOW_VERGE
 from vehloc.data.boxes import Box
 from vehloc.data.shapes import VehicleShape
-from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.edge_coverage import edge_coverage
 from vehloc.geometry.model_fit import FitParams, fit_model, overlap
 from vehloc.geometry.motion import PathHeading
@@ -20,7 +20,6 @@ from vehloc.synth.body import convex_parts_car_mm
 from vehloc.synth.catalog import model_by_id
 from vehloc.synth.render import CarPose, CarRender, render_car
 
-LOW_VERGE = PinholeCamera.look_at([6000.0, 0.0, 5000.0], [0.0, 9000.0, 0.0], 600.0, 1280, 720)
 ROAD_GREY = 100
 THRESHOLD = 12.0  # the silhouette's default: a change of more than this in any channel is the vehicle's
 FAR_CARS = [(9, 0, CarPose(-1500.0, 30000.0, 80.0)), (4, 1, CarPose(2000.0, 25000.0, 20.0))]

@@ -9,6 +9,7 @@ import dataclasses
 import numpy as np
 import pytest
 
+from conftest import LOW_VERGE
 from vehloc.config import ConfigError
 from vehloc.data.shapes import VehicleShape
 from vehloc.geometry.camera import PinholeCamera
@@ -224,12 +225,6 @@ def test_one_wheel_whose_box_leaves_the_silhouette_is_no_placement(camera: Pinho
     assert isinstance(placed, NotPlaced) and "px beyond the vehicle's silhouette" in placed.message
 
 
-@pytest.fixture(scope="module")
-def low_camera() -> PinholeCamera:
-    """The benchmark's low verge camera: 5 m high on the right verge, f 600 px, looking down the road."""
-    return PinholeCamera.look_at(np.array([6000.0, 0.0, 5000.0]), np.array([0.0, 9000.0, 0.0]), 600.0, 1280, 720)
-
-
 def _contacts(camera: PinholeCamera, centre_mm: list[float], heading_deg: float, wheelbase_mm: float
               ) -> tuple[np.ndarray, np.ndarray]:
     """A side's two tyre contacts on the road (2, 2) about `centre_mm` and their exact images."""
@@ -240,27 +235,27 @@ def _contacts(camera: PinholeCamera, centre_mm: list[float], heading_deg: float,
 
 @pytest.mark.parametrize("heading_deg", [10.0, 60.0, 100.0, 150.0])
 @pytest.mark.parametrize("centre_mm", [[0.0, 12000.0], [-2000.0, 34000.0]])
-def test_contacts_imaged_exactly_are_held_where_they_are(low_camera: PinholeCamera, heading_deg: float,
-                                                         centre_mm: list[float]) -> None:
+def test_contacts_imaged_exactly_are_held_where_they_are(heading_deg: float, centre_mm: list[float]) -> None:
     """Two contacts a wheelbase apart, imaged exactly: holding them at that wheelbase leaves them where they are
     (within 1e-6 mm)."""
     from vehloc.geometry.keypoints import held_at_wheelbase
 
-    road_mm, image_px = _contacts(low_camera, centre_mm, heading_deg, 2800.0)
-    held = held_at_wheelbase(image_px, low_camera.road_to_image().inverse(image_px), low_camera.road_to_image(), 2800.0)
+    road_to_image = LOW_VERGE.road_to_image()
+    road_mm, image_px = _contacts(LOW_VERGE, centre_mm, heading_deg, 2800.0)
+    held = held_at_wheelbase(image_px, road_to_image.inverse(image_px), road_to_image, 2800.0)
     np.testing.assert_allclose(held, road_mm, atol=1e-6)
 
 
 @pytest.mark.parametrize("heading_deg", [60.0, 150.0])
-def test_a_far_pairs_direction_is_held_by_the_wheelbase(low_camera: PinholeCamera, heading_deg: float) -> None:
-    """A car 34 m down the road from the low camera, its contacts 39-41 px apart in the image, each read 0.7 px off
+def test_a_far_pairs_direction_is_held_by_the_wheelbase(heading_deg: float) -> None:
+    """A car 34 m down the road from the low verge camera, its contacts 39-41 px apart in the image, each read 0.7 px off
     vertically (opposite ways): mapped to the road as read, their direction is over 6 deg off; held at the
     wheelbase, within 0.5 deg (measured 6.33 and 6.46 deg, and 0.38 and 0.22 deg)."""
     from vehloc.geometry.keypoints import held_at_wheelbase
     from vehloc.geometry.placement import axis_difference_deg, heading_of
 
-    road_to_image = low_camera.road_to_image()
-    _, image_px = _contacts(low_camera, [-2000.0, 34000.0], heading_deg, 2800.0)
+    road_to_image = LOW_VERGE.road_to_image()
+    _, image_px = _contacts(LOW_VERGE, [-2000.0, 34000.0], heading_deg, 2800.0)
     read_px = image_px + [[0.0, 0.7], [0.0, -0.7]]
     as_read = road_to_image.inverse(read_px)
     held = held_at_wheelbase(read_px, as_read, road_to_image, 2800.0)

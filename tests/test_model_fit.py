@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from conftest import LOW_VERGE
 from vehloc.data.boxes import Box
 from vehloc.data.shapes import VehicleShape
 from vehloc.geometry.camera import PinholeCamera
@@ -16,8 +17,6 @@ from vehloc.synth.catalog import model_by_id
 from vehloc.synth.render import CarPose, render_car
 
 CAMERA = PinholeCamera.look_at([0.0, -6000.0, 6500.0], [0.0, 9000.0, 0.0], 1000.0, 1280, 720)
-LOW_VERGE = PinholeCamera.look_at([6000.0, 0.0, 5000.0], [0.0, 9000.0, 0.0], 600.0, 1280, 720)
-"""The benchmark's low camera on the right verge, with a wide lens: a car 30-38 m away fills an ROI 104-148 px wide."""
 
 
 def rendered(model_id: int, pose: CarPose) -> tuple[np.ndarray, object]:
