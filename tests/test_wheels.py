@@ -14,8 +14,7 @@ from detector_scenes import (
 )
 from vehloc.geometry.footprint import FootprintParams, detect_footprint
 from vehloc.geometry.wheels import (
-    Ellipse, WheelParams, best_per_place, conic_crossings, dark_levels, detect_wheels, notched_rims, rim_candidates,
-    rim_fits, vertical_diameter,
+    Ellipse, WheelParams, best_per_place, conic_crossings, detect_wheels, rim_candidates, vertical_diameter,
 )
 
 PARAMS = WheelParams.from_config()
@@ -207,47 +206,6 @@ def test_a_rim_whose_spokes_are_as_dark_as_the_tyre_is_found_from_the_gaps_betwe
         assert np.abs(rim.semi_axes_px - drawn.semi_axes_px).max() <= 1.5
     alone = [rim for rim, _, _ in rim_candidates(grey, mask, PARAMS)]
     assert all(rim.semi_axes_px[0] < 0.8 * drawn.semi_axes_px[0] for rim in alone)
-
-
-def notched_wheel(notches: int, notch_width_px: int, reach_fraction: float) -> tuple[np.ndarray, np.ndarray, Ellipse]:
-    """`spoked_wheel`'s tyre and light rim, with `notches` dark spokes reaching in from the tyre `reach_fraction` of
-    the way to the centre, none of them to the others: the rim stays one hole, its outline notched by them."""
-    rim = Ellipse(np.array([60.0, 40.0]), np.array([18.0, 14.0]), 10.0)
-    grey = np.full((80, 120), 120, np.uint8)
-    cv2.ellipse(grey, ((60.0, 40.0), (54.0, 42.0), 10.0), 20, cv2.FILLED)
-    cv2.ellipse(grey, ((60.0, 40.0), (36.0, 28.0), 10.0), 170, cv2.FILLED)
-    theta = np.radians(10.0)
-    turn = np.array([[np.cos(theta), -np.sin(theta)], [np.sin(theta), np.cos(theta)]])
-    for k in range(notches):
-        angle = 2 * np.pi * (k + 0.25) / notches
-        edge = rim.centre_px + turn @ np.array([18.0 * np.cos(angle), 14.0 * np.sin(angle)])
-        tip = rim.centre_px + (1.0 - reach_fraction) * (edge - rim.centre_px)
-        cv2.line(grey, tuple(int(round(v)) for v in edge), tuple(int(round(v)) for v in tip), 20, notch_width_px)
-    return grey.astype(np.float32), np.ones(grey.shape, bool), rim
-
-
-@pytest.mark.parametrize("notches, notch_width_px, reach_fraction", [(5, 3, 0.7), (3, 5, 0.5), (6, 3, 0.6)])
-def test_a_rim_notched_by_spokes_from_the_tyre_is_found_from_its_holes_hull(notches, notch_width_px, reach_fraction):
-    """Dark spokes that reach into a light rim from the tyre, none of them to the others, leave it one hole whose
-    outline no ellipse fits: no rim of its size is found from the holes alone. The hole's convex hull is the rim:
-    its ellipse's centre within 0.5 px and its semi-axes within 1.5 px of the drawn rim (the hull is of the tyre's
-    pixels round the hole, as every rim's outline is)."""
-    grey, mask, drawn = notched_wheel(notches, notch_width_px, reach_fraction)
-    alone = [rim for rim, _, _ in rim_candidates(grey, mask, PARAMS)]
-    assert all(rim.semi_axes_px[0] < 0.8 * drawn.semi_axes_px[0] for rim in alone)
-    found = [rim for rim, _, _ in rim_candidates(grey, mask, PARAMS, spoked=True)]
-    best = min(found, key=lambda rim: np.abs(rim.semi_axes_px - drawn.semi_axes_px).sum())
-    assert np.linalg.norm(best.centre_px - drawn.centre_px) <= 0.5
-    assert np.abs(best.semi_axes_px - drawn.semi_axes_px).max() <= 1.5
-
-
-def test_a_rim_that_fits_as_a_hole_is_not_replaced_by_its_hull():
-    """A plain rim's hole is a rim as it is: the notched rims add no outline of it (its hull, a little larger, would
-    stand in its place as the largest rim there)."""
-    grey, mask, _ = spoked_wheel(0, 0)
-    for dark, holes in dark_levels(grey, mask, PARAMS):
-        assert rim_fits(holes, dark, PARAMS)
-        assert notched_rims(holes, dark, PARAMS) == []
 
 
 def test_no_wheels_in_an_empty_mask():

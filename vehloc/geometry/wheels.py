@@ -14,8 +14,7 @@ lies half a tyre width further in, across the wheel's plane on the road, away fr
 as a hole at several levels (a grey rim's hub alone at the loosest); per place the largest rim stands. Of the
 wheels found, the best pair a wheelbase apart on a line along both wheels' planes is kept (a lone wheel otherwise).
 Where that gives no pair, rims whose spokes are as dark as the tyre are tried too: no gap between their spokes has
-the rim's shape, but the hull of the gaps has; and where such spokes reach in from the tyre without cutting the rim
-in gaps, the hull of its notched hole.
+the rim's shape, but the hull of the gaps has.
 """
 
 from __future__ import annotations
@@ -224,23 +223,10 @@ def rim_candidates(roi_grey: np.ndarray, mask: np.ndarray, params: WheelParams, 
     darkness level, with how well each hole fills its ellipse (intersection over union) and that level's dark
     pixels. A wheel may give a hole at several levels (its rim at a low one, only its hub at a higher one, where a
     grey rim counts as dark): all are kept, to be measured as wheels. With `spoked`, the outlines of spoked rims
-    (`spoked_and_notched_rims`) are tried too, after each level's holes."""
+    grouped from their gaps (`spoked_rims`) are tried too, after each level's holes."""
     return [candidate for dark, holes in dark_levels(roi_grey, mask, params)
-            for candidate in rim_fits(holes + (spoked_and_notched_rims(holes, dark, params) if spoked else []),
+            for candidate in rim_fits(holes + (spoked_rims(holes, dark.shape, params.min_rim_px) if spoked else []),
                                       dark, params)]
-
-
-def spoked_and_notched_rims(holes: list[np.ndarray], dark: np.ndarray, params: WheelParams) -> list[np.ndarray]:
-    """The outlines of rims whose spokes are as dark as the tyre: grouped from the gaps between the spokes
-    (`spoked_rims`), and the hull of a hole whose own outline is no rim (`notched_rims`)."""
-    return spoked_rims(holes, dark.shape, params.min_rim_px) + notched_rims(holes, dark, params)
-
-
-def notched_rims(holes: list[np.ndarray], dark: np.ndarray, params: WheelParams) -> list[np.ndarray]:
-    """The convex hulls of the holes that `rim_fits` refuses as they are: where dark spokes reach into a rim's hole
-    from the tyre without cutting it in gaps, they notch its outline, and the notches' hull is the rim. A hole that
-    is a rim keeps its own outline (its hull, larger by the pixels' corners, would stand in its place)."""
-    return [cv2.convexHull(hole) for hole in holes if len(hole) >= 5 and not rim_fits([hole], dark, params)]
 
 
 def spoked_rims(holes: list[np.ndarray], shape: tuple[int, int], spoke_px: float) -> list[np.ndarray]:
@@ -400,7 +386,7 @@ def detect_wheels(
     if params.spoked_rims and (wheels is None or len(wheels.wheels) < 2):
         spoked = paired_wheels(best_per_place([
             wheel for found, (dark, holes) in zip(from_holes, levels)
-            for wheel in found + measured(spoked_and_notched_rims(holes, dark, params), dark)
+            for wheel in found + measured(spoked_rims(holes, dark.shape, params.min_rim_px), dark)
         ]), road_to_image, foot, params)
         if spoked is not None and (wheels is None or len(spoked.wheels) > len(wheels.wheels)):
             wheels = spoked
