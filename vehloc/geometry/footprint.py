@@ -33,15 +33,18 @@ import numpy as np
 
 from vehloc.config import check_range, params_from_config
 from vehloc.geometry.body_lines import BodyLineParams, body_segments_px
+from vehloc.geometry.end_bottom import EndBottomParams
 from vehloc.geometry.projective import ProjectiveTransform
 from vehloc.geometry.silhouette import outline_corners_px
 
 
 @dataclass(frozen=True)
 class FootprintParams:
-    """Segment extraction (`lines`) and the grouping of segments by road direction."""
+    """Segment extraction (`lines`), the grouping of segments by road direction, and the end's bottom edge below a
+    plate (`end`)."""
 
     lines: BodyLineParams
+    end: EndBottomParams
     vertical_max_deg: float
     direction_bandwidth_deg: float
     group_tolerance_deg: float

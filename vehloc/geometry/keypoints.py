@@ -1,7 +1,9 @@
 """The paper's key footprint points (Sec. II-E) and its placement of the box (Sec. II-F).
 
 The plate branch, first: O is the footprint point below the plate's middle P, where the image of the
-vertical through P (towards the camera's vertical vanishing point) meets the front line l_F; C lies along
+vertical through P (towards the camera's vertical vanishing point) meets the end's bottom edge, found on the
+image's profile below the plate (`vehloc.geometry.end_bottom`), or, where that edge is not found, the front
+line l_F; C lies along
 the length axis, into the vehicle (perpendicular to the plate's upper and lower edges on the road when they
 agree with the side line's direction, else along it); the box's visible end is stuck to O_W with its long
 centreline along O_W C_W. The plate also says which of the two axes the body's edges show is the length axis
@@ -29,6 +31,7 @@ from vehloc.config import build_params
 from vehloc.data.boxes import Box
 from vehloc.data.shapes import VehicleShape
 from vehloc.data.specs import VehicleSpec
+from vehloc.geometry.end_bottom import EndBottomParams, end_bottom_px
 from vehloc.geometry.footprint import FootprintLines, FootprintParams, detect_footprint
 from vehloc.geometry.placement import VehicleBox, direction_of, heading_of, place_on_end, place_on_side
 from vehloc.geometry.plate import Plate, PlateParams, plate_candidates
@@ -180,6 +183,24 @@ def below_plate_mm(plate_centre_mm: np.ndarray, front_line_mm: np.ndarray,
     return point[:2] / point[2]
 
 
+def below_plate_on_end_mm(plate: Plate, roi_bgr: np.ndarray, silhouette: Silhouette, offset: np.ndarray,
+                          road_to_image: ProjectiveTransform, length_heading_deg: float, height_mm: float,
+                          camera_centre_mm: np.ndarray, params: EndBottomParams) -> np.ndarray | None:
+    """O from the end's own bottom edge (`vehloc.geometry.end_bottom`): where it crosses the vertical through the
+    plate's middle P in the image (the end's across lines pass through the vanishing point of the direction
+    across `length_heading_deg`), lowered to the road from `height_mm`; None when the edge is not found there."""
+    vertical = np.cross([*plate.centre_px, 1.0], road_to_image.homogeneous(camera_centre_mm[:2])[0])
+    plate_bottom = np.cross(vertical, plate.lower_line_px)
+    across = direction_of(length_heading_deg + 90.0)
+    vanishing = road_to_image.front_sign * (road_to_image.matrix @ np.array([across[0], across[1], 0.0]))
+    width_px = float(np.linalg.norm(plate.corners_px[1] - plate.corners_px[0]))
+    bottom = end_bottom_px(roi_bgr, silhouette.light_ratio, silhouette.mask, offset, plate_bottom[:2] / plate_bottom[2],
+                           vertical, vanishing, width_px, params)
+    if bottom is None:
+        return None
+    return lowered_points_mm(road_to_image.inverse.map_visible(bottom[None], "O"), height_mm, camera_centre_mm)[0]
+
+
 def paper_placement(
     roi_bgr: np.ndarray, silhouette: Silhouette, roi: Box, calibration: CameraCalibration, spec: VehicleSpec,
     shape: VehicleShape, params: DetectorParams, visible_end: str | None = None,
@@ -189,9 +210,11 @@ def paper_placement(
     (on or above the horizon).
 
     Plate branch: the length axis is perpendicular to the plate's edges (when they agree with the body's
-    lines); the front footprint line is the lower edge at the visible end of the silhouette trimmed of
-    the shadow below it; that edge is the bumper's, a bumper's height above the road, so it is lowered to the
-    road by that height, the predicted model's (`shape`; `visible_end` `front` or `rear` when known). Wheel
+    lines); O lies on the end's bottom edge below P, found in the image where the end meets the road
+    (`below_plate_on_end_mm`), else on the front footprint line, the lower edge at the visible end of the
+    silhouette trimmed of the shadow below it; either edge is the bumper's, a bumper's height above the road, so it
+    is lowered to the road by that height, the predicted model's (`shape`; `visible_end` `front` or `rear` when
+    known). Wheel
     branch: the lines of the whole silhouette, whose dark tyres reach the road."""
     try:
         return _placement(roi_bgr, silhouette, roi, calibration, spec, shape, params, visible_end)
@@ -224,13 +247,17 @@ def _plate_placement(
     lines = _footprint_lines(roi_bgr, silhouette.trimmed(), offset, calibration, params, across_plate_deg)
     if isinstance(lines, NotPlaced):
         return lines
-    p_mm = road_to_image.inverse.map_visible(plate.centre_px[None], "P")[0]
-    front_line = lowered_line_mm(lines.front_line_mm, end_bottom_height_mm(shape, visible_end), calibration.camera.centre_mm)
-    o_mm = below_plate_mm(p_mm, front_line, foot)
-    if isinstance(o_mm, NotPlaced):
-        return o_mm
     heading = plate_length_heading_deg(plate, road_to_image, lines.length_heading_deg,
                                        params.plate.heading_agreement_deg)
+    height_mm = end_bottom_height_mm(shape, visible_end)
+    o_mm = below_plate_on_end_mm(plate, roi_bgr, silhouette, offset, road_to_image, heading, height_mm,
+                                 calibration.camera.centre_mm, params.footprint.end)
+    if o_mm is None:
+        p_mm = road_to_image.inverse.map_visible(plate.centre_px[None], "P")[0]
+        front_line = lowered_line_mm(lines.front_line_mm, height_mm, calibration.camera.centre_mm)
+        o_mm = below_plate_mm(p_mm, front_line, foot)
+    if isinstance(o_mm, NotPlaced):
+        return o_mm
     into = inward(heading, o_mm, foot)
     box = place_on_end(o_mm, into, spec.length_mm, spec.width_mm)
     return Placement(box, "plate", o_mm, o_mm + C_DISTANCE_MM * into, spec.length_mm / 2)
