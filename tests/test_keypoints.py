@@ -84,12 +84,21 @@ def test_the_plates_edges_give_the_length_axis(camera: PinholeCamera, heading_de
     assert abs((width_deg - heading_deg - 90.0 + 90.0) % 180.0 - 90.0) < 1e-6
 
 
-def test_the_plates_heading_is_kept_only_when_the_body_agrees(camera: PinholeCamera) -> None:
-    """Within the agreement the plate's heading wins; beyond it the footprint's stands."""
-    plate = _plate_seen(camera, 93.0)
+def test_a_small_plates_heading_is_kept_only_when_the_body_agrees(camera: PinholeCamera) -> None:
+    """A small plate (its sides its colour's outline): within the agreement its heading wins; beyond it the
+    footprint's stands."""
+    plate = dataclasses.replace(_plate_seen(camera, 93.0), small=True)
     road_to_image = camera.road_to_image()
     assert plate_length_heading_deg(plate, road_to_image, 90.0, 5.0) == pytest.approx(93.0, abs=1e-6)
     assert plate_length_heading_deg(plate, road_to_image, 80.0, 5.0) == 80.0
+
+
+def test_a_plate_whose_sides_were_found_on_the_edges_sets_the_heading(camera: PinholeCamera) -> None:
+    """A plate whose sides were found on the image's edges sets the heading however far the footprint's lies off."""
+    plate = _plate_seen(camera, 93.0)
+    road_to_image = camera.road_to_image()
+    for footprint_deg in (90.0, 80.0, 60.0):
+        assert plate_length_heading_deg(plate, road_to_image, footprint_deg, 5.0) == pytest.approx(93.0, abs=1e-6)
 
 
 @pytest.mark.parametrize(("heading_deg", "bottom_mm"), [(90.0, 300.0), (60.0, 0.0), (120.0, 1000.0)])

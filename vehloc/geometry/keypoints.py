@@ -4,8 +4,8 @@ The plate branch, first: O is the footprint point below the plate's middle P, wh
 vertical through P (towards the camera's vertical vanishing point) meets the end's bottom edge, found on the
 image's profile below the plate (`vehloc.geometry.end_bottom`), or, where that edge is not found, the front
 line l_F; C lies along
-the length axis, into the vehicle (perpendicular to the plate's upper and lower edges on the road when they
-agree with the side line's direction, else along it); the box's visible end is stuck to O_W with its long
+the length axis, into the vehicle (perpendicular to the plate's upper and lower edges on the road; for a small
+plate only when they agree with the side line's direction, else along it); the box's visible end is stuck to O_W with its long
 centreline along O_W C_W. The plate also says which of the two axes the body's edges show is the length axis
 (the one across the plate's edges): an end seen head-on shows little of its sides. A plate-like part that no
 plate could be by its width on the road, at any height a plate is mounted at (a bright band on the roof of a
@@ -126,12 +126,13 @@ def plate_width_heading_deg(plate: Plate, road_to_image: ProjectiveTransform) ->
 
 def plate_length_heading_deg(plate: Plate, road_to_image: ProjectiveTransform, footprint_heading_deg: float,
                              agreement_deg: float) -> float:
-    """The length axis (deg, [0, 180)) perpendicular to the plate's edges when they agree with the footprint's
-    within `agreement_deg` (a plate seen head-on gives the end's direction more closely than the body's
-    lines), else the footprint's."""
+    """The length axis (deg, [0, 180)) perpendicular to the plate's edges where its sides were found on the image's
+    edges (a plate seen head-on gives the end's direction more closely than the body's lines), or, for a small plate
+    (its sides its colour's outline), where they agree with the footprint's within `agreement_deg`; else the
+    footprint's."""
     heading = (plate_width_heading_deg(plate, road_to_image) + 90.0) % 180.0
     gap = abs((heading - footprint_heading_deg + 90.0) % 180.0 - 90.0)
-    return heading if gap <= agreement_deg else footprint_heading_deg
+    return heading if not plate.small or gap <= agreement_deg else footprint_heading_deg
 
 
 def plate_widths_mm(plate: Plate, road_to_image: ProjectiveTransform, camera_height_mm: float,
@@ -209,8 +210,8 @@ def paper_placement(
     silhouette); `NotPlaced` saying why when the key points cannot be found or a key point maps to no road point
     (on or above the horizon).
 
-    Plate branch: the length axis is perpendicular to the plate's edges (when they agree with the body's
-    lines); O lies on the end's bottom edge below P, found in the image where the end meets the road
+    Plate branch: the length axis is perpendicular to the plate's edges (a small plate's when they agree with
+    the body's lines); O lies on the end's bottom edge below P, found in the image where the end meets the road
     (`below_plate_on_end_mm`), else on the front footprint line, the lower edge at the visible end of the
     silhouette trimmed of the shadow below it; either edge is the bumper's, a bumper's height above the road, so it
     is lowered to the road by that height, the predicted model's (`shape`; `visible_end` `front` or `rear` when
