@@ -48,7 +48,8 @@ def _row_on_line(line: np.ndarray, y: float) -> np.ndarray:
 
 
 def end_profile(roi_bgr: np.ndarray, light_ratio: np.ndarray, offset_px: np.ndarray, vertical_px: np.ndarray,
-                across_vanishing_px: np.ndarray, half_span_px: float, rows_px: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                across_vanishing_px: np.ndarray, half_span_px: float,
+                rows_px: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The profile at the frame rows `rows_px` of the vertical line `vertical_px` (homogeneous): each row's log light
     ratio and chromaticity (B, G, R over their sum), the medians over the across line through that row's point of the
     vertical (towards `across_vanishing_px`, homogeneous) within `half_span_px` of it (NaN where it leaves the ROI)."""
@@ -82,7 +83,8 @@ def end_bottom_px(roi_bgr: np.ndarray, light_ratio: np.ndarray, mask: np.ndarray
     offset = np.asarray(offset_px, dtype=float)
     half_span_px = params.span_plate_widths * plate_width_px
     top = int(np.ceil(plate_bottom_px[1]))
-    columns = np.arange(int(np.floor(plate_bottom_px[0] - half_span_px)), int(np.ceil(plate_bottom_px[0] + half_span_px)) + 1)
+    columns = np.arange(int(np.floor(plate_bottom_px[0] - half_span_px)),
+                        int(np.ceil(plate_bottom_px[0] + half_span_px)) + 1)
     inside = columns[(columns >= offset[0]) & (columns < offset[0] + mask.shape[1])] - int(offset[0])
     filled = mask[:, inside].any(axis=1)
     if not filled.any():

@@ -3,11 +3,11 @@
 The plate branch, first: O is the footprint point below the plate's middle P, where the image of the
 vertical through P (towards the camera's vertical vanishing point) meets the end's bottom edge, found on the
 image's profile below the plate (`vehloc.geometry.end_bottom`), or, where that edge is not found, the front
-line l_F; C lies along
-the length axis, into the vehicle (perpendicular to the plate's upper and lower edges on the road; for a small
-plate only when they agree with the side line's direction, else along it); the box's visible end is stuck to O_W with its long
-centreline along O_W C_W. The plate also says which of the two axes the body's edges show is the length axis
-(the one across the plate's edges): an end seen head-on shows little of its sides. A plate-like part that no
+line l_F; C lies along the length axis, into the vehicle (perpendicular to the plate's upper and lower edges
+on the road; for a small plate only when they agree with the side line's direction, else along it); the box's
+visible end is stuck to O_W with its long centreline along O_W C_W. The plate also says which of the two axes
+the body's edges show is the length axis (the one across the plate's edges): an end seen head-on shows little
+of its sides. A plate-like part that no
 plate could be by its width on the road, at any height a plate is mounted at (a bright band on the roof of a
 small, far car), is not taken: the best candidate that can be a plate is. A small plate (its sides its colour's
 outline, not found on the edges) gives way to two wheels. The wheel branch, when
@@ -195,8 +195,8 @@ def below_plate_on_end_mm(plate: Plate, roi_bgr: np.ndarray, silhouette: Silhoue
     across = direction_of(length_heading_deg + 90.0)
     vanishing = road_to_image.front_sign * (road_to_image.matrix @ np.array([across[0], across[1], 0.0]))
     width_px = float(np.linalg.norm(plate.corners_px[1] - plate.corners_px[0]))
-    bottom = end_bottom_px(roi_bgr, silhouette.light_ratio, silhouette.mask, offset, plate_bottom[:2] / plate_bottom[2],
-                           vertical, vanishing, width_px, params)
+    bottom = end_bottom_px(roi_bgr, silhouette.light_ratio, silhouette.mask, offset,
+                           plate_bottom[:2] / plate_bottom[2], vertical, vanishing, width_px, params)
     if bottom is None:
         return None
     return lowered_points_mm(road_to_image.inverse.map_visible(bottom[None], "O"), height_mm, camera_centre_mm)[0]
@@ -215,8 +215,7 @@ def paper_placement(
     (`below_plate_on_end_mm`), else on the front footprint line, the lower edge at the visible end of the
     silhouette trimmed of the shadow below it; either edge is the bumper's, a bumper's height above the road, so it
     is lowered to the road by that height, the predicted model's (`shape`; `visible_end` `front` or `rear` when
-    known). Wheel
-    branch: the lines of the whole silhouette, whose dark tyres reach the road."""
+    known). Wheel branch: the lines of the whole silhouette, whose dark tyres reach the road."""
     try:
         return _placement(roi_bgr, silhouette, roi, calibration, spec, shape, params, visible_end)
     except HorizonError as err:
