@@ -4,13 +4,13 @@ Below the end lies the road: in the vehicle's shade (darkest at the vehicle, lig
 pixels keep the road's chromaticity, and their light ratio (the frame's light over the background's) changes smoothly
 towards the vehicle, falling towards it in the shade and never rising. The end's paint breaks one of these rules:
 another chromaticity (a colour), a ratio that rises (a light body above the darkest shade), or one that falls far more
-than the shade does from one pixel to the next (black paint). No threshold on the silhouette is involved: its
-texture test reaches a few pixels past a dark bumper, its chromaticity test bleeds with the frame's subsampled colour.
+than the shade does from one pixel to the next (black paint). The silhouette only bounds how far down to look: its
+texture test drops a bumper that carries a plate, and its chromaticity test bleeds with the frame's subsampled colour.
 
 The profile: the ROI's pixels along the lines of the end's across direction (through its vanishing point), over the
 end's middle (`EndBottomParams.span_plate_widths` plate widths either side of the vertical through P), one median per
 whole-pixel step along that vertical, from the plate's lower edge down to a few pixels past the silhouette's bottom
-(the road beside it sets the road's chromaticity). Walked up from the bottom, the first step that breaks the road's
+(the road there sets the road's chromaticity). Walked up from the bottom, the first step that breaks the road's
 rules is the end's, and the end's bottom edge lies half a pixel below it.
 """
 
