@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import vehloc.geometry.plate as plate_module
 import vehloc.synth.render as render_module
 from detector_scenes import (
     BLACK, RED_PICKUP, SILVER, SMALL_PLATE_POSES, WHITE, WHITE_SMALL, YELLOW_DARK_RIMS, render_case,
@@ -139,3 +140,31 @@ def test_a_small_plates_characters_merged_into_two_parts_still_make_a_row():
     lone = np.zeros((12, 30), bool)
     lone[3:7, 5:13] = True
     assert character_rows(lone, PARAMS.min_characters, PARAMS.run_together_aspect) == []
+
+
+@pytest.mark.parametrize(("car", "pose"), [(WHITE, "small_rear_30"), (WHITE_SMALL, "small_rear_24")])
+def test_a_plate_no_lighter_than_its_white_body_is_found_beside_its_characters(monkeypatch, car, pose):
+    """A plate dimmed to its white body's lightness (emissive 0.2 instead of 0.45; 16-17 px wide, 19-22 m away): no
+    part of it is lighter than its surroundings, so the first colour rule finds none; the plate's colour next to its
+    dark characters finds it, P within 1 px (measured: 0.52 and 0.31 px)."""
+    monkeypatch.setitem(render_module._FINISHES, Material.PLATE,
+                        render_module._Finish((236, 236, 228), emissive=0.2))
+    case = render_case(car, pose)
+    assert plate_of(case, PlateParams.from_config(beside_characters=False)) is None
+    plate = plate_of(case)
+    assert plate is not None and np.linalg.norm(plate.centre_px - true_centre_px(case)) <= 1.0
+
+
+def test_the_rule_beside_the_characters_is_asked_only_where_the_first_finds_none(monkeypatch):
+    """Where the first rule finds a plate, the second is not asked (a plate lighter than its body keeps the
+    candidates it had)."""
+    case = render_case(SILVER, "far_rear_30")
+    asked = []
+    real = plate_module.plate_coloured
+
+    def spy(roi_bgr, params, beside_characters=False):
+        asked.append(beside_characters)
+        return real(roi_bgr, params, beside_characters)
+
+    monkeypatch.setattr(plate_module, "plate_coloured", spy)
+    assert plate_of(case) is not None and asked == [False]

@@ -3,7 +3,9 @@ lines l_UL and l_LL, and its middle point P.
 
 The plate's background colour is a rule in HSV: light plates with dark characters by default (low saturation,
 lighter than their surroundings by a white top-hat whose kernel is a few times the plate's strokes), blue
-Chinese plates with white characters by another hue, saturation and value range with the top-hat off. A closing
+Chinese plates with white characters by another hue, saturation and value range with the top-hat off. Where no
+plate is found so, the plate's colour next to pixels darker than their surroundings by as much (its characters: a
+plate on a body as light as the plate, `beside_characters`) is searched the same way. A closing
 along the rows joins the plate's colour across the characters and the blobs' holes are filled. The characters
 are the pixels of such a blob that are not plate-coloured, grouped into rows of parts of about the same height
 side by side (characters too close to be told apart make one part, as wide as several), each part spanning most
@@ -39,6 +41,7 @@ class PlateParams:
     value_range: tuple[int, int]
     min_contrast: float
     tophat_fraction: float
+    beside_characters: bool
     close_px: tuple[int, int]
     min_characters: int
     run_together_aspect: float
@@ -111,9 +114,11 @@ class Plate:
     small: bool = False
 
 
-def plate_coloured(roi_bgr: np.ndarray, params: PlateParams) -> np.ndarray:
+def plate_coloured(roi_bgr: np.ndarray, params: PlateParams, beside_characters: bool = False) -> np.ndarray:
     """Pixels (bool) of the plate's background colour: in the HSV ranges and, with the top-hat on, lighter than
-    their surroundings."""
+    their surroundings; with `beside_characters`, instead next to (8-connected) a pixel darker than its
+    surroundings by as much (the black top-hat, same kernel) and not such a pixel themselves: a light plate on a
+    body as light as the plate, told only by its dark characters."""
     hue, saturation, value = cv2.split(cv2.cvtColor(roi_bgr, cv2.COLOR_BGR2HSV))
     colour = np.ones(hue.shape, bool)
     for channel, (low, high) in ((hue, params.hue_range), (saturation, params.saturation_range),
@@ -123,7 +128,11 @@ def plate_coloured(roi_bgr: np.ndarray, params: PlateParams) -> np.ndarray:
         return colour
     size = max(3, int(round(params.tophat_fraction * roi_bgr.shape[1])) | 1)
     kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (size, size))
-    return colour & (cv2.morphologyEx(value, cv2.MORPH_TOPHAT, kernel) >= params.min_contrast)
+    if not beside_characters:
+        return colour & (cv2.morphologyEx(value, cv2.MORPH_TOPHAT, kernel) >= params.min_contrast)
+    dark = cv2.morphologyEx(value, cv2.MORPH_BLACKHAT, kernel) >= params.min_contrast
+    beside = cv2.dilate(dark.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+    return colour & beside & ~dark
 
 
 def filled_blobs(mask: np.ndarray, close_px: tuple[int, int]) -> list[np.ndarray]:
@@ -329,7 +338,19 @@ def plate_candidates(
     `roi_bgr`: the ROI crop (uint8 BGR); `mask`: its foreground (bool); `offset_px`: the ROI's top-left in the
     frame (x, y)."""
     grey = cv2.cvtColor(roi_bgr, cv2.COLOR_BGR2GRAY).astype(np.float32)
-    seeds = plate_coloured(roi_bgr, params) & np.asarray(mask, dtype=bool)
+    scored = scored_plates(roi_bgr, grey, plate_coloured(roi_bgr, params) & np.asarray(mask, dtype=bool), params)
+    if not scored and params.beside_characters and params.min_contrast > 0:
+        seeds = plate_coloured(roi_bgr, params, beside_characters=True) & np.asarray(mask, dtype=bool)
+        scored = scored_plates(roi_bgr, grey, seeds, params)
+    return [plate_from_corners(corners + np.asarray(offset_px, dtype=float), score, small)
+            for score, corners, small in scored]
+
+
+def scored_plates(
+    roi_bgr: np.ndarray, grey: np.ndarray, seeds: np.ndarray, params: PlateParams
+) -> list[tuple[float, np.ndarray, bool]]:
+    """The quadrilaterals (ROI px) around the character rows of the plate-coloured `seeds` scoring at least
+    `min_score`, best first, each with its score and whether its sides are its colour's outline (a small plate)."""
     scored: list[tuple[float, np.ndarray, bool]] = []
     for blob in filled_blobs(seeds, params.close_px):
         quads = []
@@ -353,8 +374,7 @@ def plate_candidates(
             if score >= params.min_score:
                 scored.append((score, corners, from_outline))
     scored.sort(key=lambda item: -item[0])
-    return [plate_from_corners(corners + np.asarray(offset_px, dtype=float), score, small)
-            for score, corners, small in scored]
+    return scored
 
 
 def plate_from_corners(corners: np.ndarray, score: float, small: bool = False) -> Plate:
