@@ -3,8 +3,9 @@
 The plate branch, first: O is the footprint point below the plate's middle P, where the image of the
 vertical through P (towards the camera's vertical vanishing point) meets the end's bottom edge, found on the
 image's profile below the plate (`vehloc.geometry.end_bottom`), or, where that edge is not found, the front
-line l_F; C lies along the length axis, into the vehicle (perpendicular to the plate's upper and lower edges
-on the road; for a small plate only when they agree with the side line's direction, else along it); the box's
+line l_F; C lies along the length axis, into the vehicle (perpendicular to the line through the rear lamps either
+side of the plate, where a pair is found (`vehloc.geometry.lamps`), else to the plate's upper and lower edges on the
+road; for a small plate only when they agree with the side line's direction, else along it); the box's
 visible end is stuck to O_W with its long centreline along O_W C_W. The plate also says which of the two axes
 the body's edges show is the length axis (the one across the plate's edges): an end seen head-on shows little
 of its sides. A plate-like part that no
@@ -33,6 +34,7 @@ from vehloc.data.shapes import VehicleShape
 from vehloc.data.specs import VehicleSpec
 from vehloc.geometry.end_bottom import EndBottomParams, end_bottom_px
 from vehloc.geometry.footprint import FootprintLines, FootprintParams, detect_footprint
+from vehloc.geometry.lamps import LampParams, rear_lamps
 from vehloc.geometry.placement import VehicleBox, direction_of, heading_of, place_on_end, place_on_side
 from vehloc.geometry.plate import Plate, PlateParams, plate_candidates
 from vehloc.geometry.outcome import NotPlaced, ReasonCode
@@ -116,12 +118,30 @@ def lowered_points_mm(points_mm: np.ndarray, height_mm: float, camera_centre_mm:
     return foot_mm + k * (np.asarray(points_mm, dtype=float).reshape(-1, 2) - foot_mm)
 
 
-def plate_width_heading_deg(plate: Plate, road_to_image: ProjectiveTransform) -> float:
-    """The road direction (deg, [0, 180)) of the plate's upper and lower edges, their mean: horizontal 3D lines
-    across the vehicle's end, each mapped by the inverse homography to a road line of its own direction."""
-    road_lines = road_to_image.inverse.map_lines(np.stack([plate.upper_line_px, plate.lower_line_px]))
+def level_lines_direction_deg(lines_px: np.ndarray, road_to_image: ProjectiveTransform) -> float:
+    """The road direction (deg, [0, 180)) of level 3D lines seen as the image lines `lines_px` (n, 3), their mean:
+    each maps by the inverse homography to a road line of its own direction."""
+    road_lines = road_to_image.inverse.map_lines(np.atleast_2d(lines_px))
     doubled = 2.0 * np.arctan2(-road_lines[:, 0], road_lines[:, 1])
     return float(np.degrees(np.angle(np.exp(1j * doubled).sum())) / 2.0 % 180.0)
+
+
+def plate_width_heading_deg(plate: Plate, road_to_image: ProjectiveTransform) -> float:
+    """The road direction (deg, [0, 180)) of the plate's upper and lower edges: level lines across the vehicle's end."""
+    return level_lines_direction_deg(np.stack([plate.upper_line_px, plate.lower_line_px]), road_to_image)
+
+
+def rear_lamps_heading_deg(plate: Plate, roi_bgr: np.ndarray, mask: np.ndarray, offset: np.ndarray,
+                           road_to_image: ProjectiveTransform, params: LampParams,
+                           visible_end: str | None) -> float | None:
+    """The length axis (deg, [0, 180)) perpendicular to the line through the rear lamps either side of the plate
+    (`vehloc.geometry.lamps`); None when they are off, not found, or the end in view is known to be the front."""
+    if not params.enabled or visible_end == "front":
+        return None
+    lamps = rear_lamps(roi_bgr, mask, offset, plate.centre_px, params)
+    if lamps is None:
+        return None
+    return (level_lines_direction_deg(lamps.line_px, road_to_image) + 90.0) % 180.0
 
 
 def plate_length_heading_deg(plate: Plate, road_to_image: ProjectiveTransform, footprint_heading_deg: float,
@@ -210,8 +230,8 @@ def paper_placement(
     silhouette); `NotPlaced` saying why when the key points cannot be found or a key point maps to no road point
     (on or above the horizon).
 
-    Plate branch: the length axis is perpendicular to the plate's edges (a small plate's when they agree with
-    the body's lines); O lies on the end's bottom edge below P, found in the image where the end meets the road
+    Plate branch: the length axis is perpendicular to the line through the rear lamps either side of the plate,
+    or to the plate's edges (a small plate's when they agree with the body's lines); O lies on the end's bottom edge below P, found in the image where the end meets the road
     (`below_plate_on_end_mm`), else on the front footprint line, the lower edge at the visible end of the
     silhouette trimmed of the shadow below it; either edge is the bumper's, a bumper's height above the road, so it
     is lowered to the road by that height, the predicted model's (`shape`; `visible_end` `front` or `rear` when
@@ -247,8 +267,11 @@ def _plate_placement(
     lines = _footprint_lines(roi_bgr, silhouette.trimmed(), offset, calibration, params, across_plate_deg)
     if isinstance(lines, NotPlaced):
         return lines
-    heading = plate_length_heading_deg(plate, road_to_image, lines.length_heading_deg,
-                                       params.plate.heading_agreement_deg)
+    heading = rear_lamps_heading_deg(plate, roi_bgr, silhouette.mask, offset, road_to_image, params.plate.rear_lamps,
+                                     visible_end)
+    if heading is None:
+        heading = plate_length_heading_deg(plate, road_to_image, lines.length_heading_deg,
+                                           params.plate.heading_agreement_deg)
     height_mm = end_bottom_height_mm(shape, visible_end)
     o_mm = below_plate_on_end_mm(plate, roi_bgr, silhouette, offset, road_to_image, heading, height_mm,
                                  calibration.camera.centre_mm, params.footprint.end)
