@@ -231,11 +231,11 @@ def paper_placement(
     (on or above the horizon).
 
     Plate branch: the length axis is perpendicular to the line through the rear lamps either side of the plate,
-    or to the plate's edges (a small plate's when they agree with the body's lines); O lies on the end's bottom edge below P, found in the image where the end meets the road
-    (`below_plate_on_end_mm`), else on the front footprint line, the lower edge at the visible end of the
-    silhouette trimmed of the shadow below it; either edge is the bumper's, a bumper's height above the road, so it
-    is lowered to the road by that height, the predicted model's (`shape`; `visible_end` `front` or `rear` when
-    known). Wheel branch: the lines of the whole silhouette, whose dark tyres reach the road."""
+    or to the plate's edges (a small plate's when they agree with the body's lines); O lies on the end's bottom edge
+    below P, found in the image where the end meets the road (`below_plate_on_end_mm`), else on the front footprint
+    line, the lower edge at the visible end of the silhouette trimmed of the shadow below it; either edge is the
+    bumper's, a bumper's height above the road, so it is lowered to the road by that height, the predicted model's
+    (`shape`; `visible_end` `front` or `rear` when known). Wheel branch: the lines of the whole silhouette, whose dark tyres reach the road."""
     try:
         return _placement(roi_bgr, silhouette, roi, calibration, spec, shape, params, visible_end)
     except HorizonError as err:

@@ -4,7 +4,8 @@ The rear lamps are red, saturated and lit (OpenCV's 8-bit HSV: red hues either s
 one either side of the plate and alike in size. The line through their middles is level and across the vehicle, as
 the plate's edges are, over a baseline three or four times the plate's width: its road direction (the inverse
 homography keeps a level line's direction) gives the vehicle's across axis more closely than a small plate's edges.
-A red body joins its lamps into one large part; two parts much unlike in size are no pair, and none is returned.
+A red body joins its lamps into one large part; two parts much unlike in size, or two the plate does not stand
+between, are no pair, and none is returned.
 """
 
 from __future__ import annotations
@@ -81,7 +82,8 @@ def rear_lamps(roi_bgr: np.ndarray, mask: np.ndarray, offset_px: np.ndarray, bet
         return None
     middles = centres[pair] + offset
     along = middles[1] - middles[0]
-    if abs((np.asarray(between_px, dtype=float) - middles.mean(axis=0)) @ along) > params.max_off_middle * (along @ along):
+    off_middle_px2 = abs((np.asarray(between_px, dtype=float) - middles.mean(axis=0)) @ along)
+    if off_middle_px2 > params.max_off_middle * (along @ along):
         return None
     line = np.cross([*middles[0], 1.0], [*middles[1], 1.0])
     return LampPair(middles, line / np.hypot(line[0], line[1]))
