@@ -235,7 +235,8 @@ def paper_placement(
     below P, found in the image where the end meets the road (`below_plate_on_end_mm`), else on the front footprint
     line, the lower edge at the visible end of the silhouette trimmed of the shadow below it; either edge is the
     bumper's, a bumper's height above the road, so it is lowered to the road by that height, the predicted model's
-    (`shape`; `visible_end` `front` or `rear` when known). Wheel branch: the lines of the whole silhouette, whose dark tyres reach the road."""
+    (`shape`; `visible_end` `front` or `rear` when known). Wheel branch: the lines of the whole silhouette, whose
+    dark tyres reach the road."""
     try:
         return _placement(roi_bgr, silhouette, roi, calibration, spec, shape, params, visible_end)
     except HorizonError as err:
