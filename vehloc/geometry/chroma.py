@@ -16,6 +16,11 @@ CHROMA_FROM_BGR = np.array([[0.5, -0.331264, -0.168736],   # Cb (BT.601, as JPEG
 """The colour-difference rows of the video's colour space, from b, g, r."""
 
 
+def chroma(frame_bgr: np.ndarray) -> np.ndarray:
+    """How far each pixel's colour lies from grey: the larger of its Cb and Cr, in grey levels (float32)."""
+    return np.abs(frame_bgr.astype(np.float32) @ CHROMA_FROM_BGR.T).max(axis=2)
+
+
 def colour_change(frame_bgr: np.ndarray, background_bgr: np.ndarray) -> np.ndarray:
     """The larger of the Cb and Cr changes from the background, in grey levels (float32)."""
     change = frame_bgr.astype(np.float32) - background_bgr.astype(np.float32)

@@ -1,20 +1,20 @@
 """Wheels in a vehicle ROI (paper, Sec. II-E, after Hutter and Brewer's matching of 2-D ellipses to 3-D circles):
 each near-side wheel's ellipse and its ground contact, and Q, the middle of two contacts.
 
-Tyres are the darkest part of the lower silhouette; a rim is a hole in that darkness (taken at a few levels
-above the darkest values, for light and for dark rims), and its outline is the image of a circle in a vertical
-plane, fitted by an ellipse (`cv2.fitEllipse`). Only the near-side wheels
-show their rims: the far side's are turned away. The circle's image gives its own geometry projectively: the
-polar of the vertical vanishing point (the image of the camera's foot point) with respect to the ellipse is
-the wheel's horizontal diameter, which meets the horizon in the vanishing point of the wheel's plane, and the
-polar of that point is its vertical diameter, through the centre and the bottom of the tyre, which is
-concentric with the rim. Where the vertical diameter leaves the silhouette, or sooner where the tyre's darkness
-ends above a lighter shadow, the tyre's outer face touches the road; the tyre's contact (the middle of its tread)
-lies half a tyre width further in, across the wheel's plane on the road, away from the camera. A wheel may show
-as a hole at several levels (a grey rim's hub alone at the loosest); per place the largest rim stands. Of the
-wheels found, the best pair a wheelbase apart on a line along both wheels' planes is kept (a lone wheel otherwise).
-Where that gives no pair, rims whose spokes are as dark as the tyre are tried too: no gap between their spokes has
-the rim's shape, but the hull of the gaps has.
+Tyres are the darkest part of the lower silhouette; a rim is a hole in that darkness (taken at a few levels above the
+darkest values, for light and for dark rims), and its outline is the image of a circle in a vertical plane, fitted by
+an ellipse (`cv2.fitEllipse`) that the hole must fill, pixels within half a pixel of its outline not counted (a far
+rim is a few pixels across), and grey inside (a lit lamp in a dark body is such a hole too). Only the near-side wheels
+show their rims: the far side's are turned away. The circle's image gives its own geometry projectively: the polar of
+the vertical vanishing point (the image of the camera's foot point) with respect to the ellipse is the wheel's
+horizontal diameter, which meets the horizon in the vanishing point of the wheel's plane, and the polar of that point
+is its vertical diameter, through the centre and the bottom of the tyre, which is concentric with the rim. Where the
+vertical diameter leaves the silhouette, or sooner where the tyre's darkness ends above a lighter shadow, the tyre's
+outer face touches the road; the tyre's contact (the middle of its tread) lies half a tyre width further in, across
+the wheel's plane on the road, away from the camera. A wheel may show as a hole at several levels (a grey rim's hub
+alone at the loosest); per place the largest rim stands. Of the wheels found, the best pair a wheelbase apart on a
+line along both wheels' planes is kept (a lone wheel otherwise). Where that gives no pair, rims whose spokes are as
+dark as the tyre are tried too: no gap between their spokes has the rim's shape, but the hull of the gaps has.
 """
 
 from __future__ import annotations
@@ -25,6 +25,7 @@ import cv2
 import numpy as np
 
 from vehloc.config import check_interval, check_range, params_from_config
+from vehloc.geometry.chroma import chroma
 from vehloc.geometry.projective import ProjectiveTransform
 
 
@@ -40,6 +41,8 @@ class WheelParams:
     min_rim_px: float
     min_axis_ratio: float
     min_ellipse_overlap: float
+    rim_outline_band_px: float
+    rim_max_chroma: float
     spoked_rims: bool
     one_wheel: bool
     one_wheel_margin_fraction: float
@@ -60,6 +63,8 @@ class WheelParams:
         check_range("min_rim_px", self.min_rim_px, 0.0, low_open=True)
         check_range("min_axis_ratio", self.min_axis_ratio, 0.0, 1.0)
         check_range("min_ellipse_overlap", self.min_ellipse_overlap, 0.0, 1.0)
+        check_range("rim_outline_band_px", self.rim_outline_band_px, 0.0)
+        check_range("rim_max_chroma", self.rim_max_chroma, 0.0)
         check_interval("tyre_to_rim_range", self.tyre_to_rim_range, 1.0)  # the ground is outside the rim
         check_range("tyre_to_rim_nominal", self.tyre_to_rim_nominal, *self.tyre_to_rim_range)
         for i, contrast in enumerate(self.dark_contrasts):
@@ -200,7 +205,8 @@ def dark_levels(roi_grey: np.ndarray, mask: np.ndarray, params: WheelParams) -> 
 
 def rim_fits(outlines: list[np.ndarray], dark: np.ndarray, params: WheelParams) -> list[RimCandidate]:
     """The ellipses fitted to outlines in one level's `dark` pixels that are rim-sized, round enough and filled by
-    their outline (`min_ellipse_overlap`), each with that overlap and the level's dark pixels."""
+    their outline (`ellipse_overlap` at least `min_ellipse_overlap`), each with that overlap and the level's dark
+    pixels."""
     rims: list[RimCandidate] = []
     for outline in outlines:
         if len(outline) < 5:
@@ -211,11 +217,29 @@ def rim_fits(outlines: list[np.ndarray], dark: np.ndarray, params: WheelParams) 
             continue
         hole = np.zeros_like(dark)
         cv2.drawContours(hole, [outline], -1, 1, cv2.FILLED)
-        inside = rim.mask(dark.shape)
-        overlap = np.count_nonzero(inside & hole.astype(bool)) / np.count_nonzero(inside | hole.astype(bool))
+        overlap = ellipse_overlap(rim, hole.astype(bool), params.rim_outline_band_px)
         if overlap >= params.min_ellipse_overlap:
             rims.append((rim, overlap, dark.astype(bool)))
     return rims
+
+
+def ellipse_overlap(rim: Ellipse, hole: np.ndarray, band_px: float) -> float:
+    """How well a hole (bool pixels) fills its fitted ellipse: one less the share of their union that is wrong, a
+    pixel of the ellipse missing from the hole or one of the hole outside the ellipse, where pixels within `band_px`
+    of the ellipse's outline are wrong neither way (which side of the outline they fall on is the digitization's
+    call: at a rim a few pixels across, that band is a third of the ellipse)."""
+    inside = rim.mask(hole.shape)
+    inner = Ellipse(rim.centre_px, np.maximum(rim.semi_axes_px - band_px, 0.0), rim.angle_deg).mask(hole.shape)
+    outer = Ellipse(rim.centre_px, rim.semi_axes_px + band_px, rim.angle_deg).mask(hole.shape)
+    wrong = np.count_nonzero(inner & ~hole) + np.count_nonzero(hole & ~outer)
+    return 1.0 - wrong / np.count_nonzero(inside | hole)
+
+
+def rim_chroma(rim: Ellipse, colour: np.ndarray, band_px: float) -> float:
+    """The median chroma (`vehloc.geometry.chroma.chroma`) inside a rim, `band_px` in from its outline. A rim is grey
+    metal; a lit lamp in a dark body is a hole of its shape too, and coloured."""
+    inner = Ellipse(rim.centre_px, np.maximum(rim.semi_axes_px - band_px, 0.5), rim.angle_deg).mask(colour.shape)
+    return float(np.median(colour[inner])) if inner.any() else 0.0
 
 
 def rim_candidates(roi_grey: np.ndarray, mask: np.ndarray, params: WheelParams, spoked: bool = False) -> list[RimCandidate]:
@@ -373,10 +397,12 @@ def detect_wheels(
     vertical_vp = road_to_image.homogeneous(foot)[0]
     horizon = road_to_image.map_lines(np.array([0.0, 0.0, 1.0]))[0]
     grey = cv2.cvtColor(roi_bgr, cv2.COLOR_BGR2GRAY).astype(np.float32)
+    colour = chroma(roi_bgr)
 
     def measured(outlines: list[np.ndarray], dark: np.ndarray) -> list[tuple]:
         return [wheel for roi_rim, overlap, level_dark in rim_fits(outlines, dark, params)
-                if (wheel := measure_wheel(Ellipse(roi_rim.centre_px + offset, roi_rim.semi_axes_px, roi_rim.angle_deg),
+                if rim_chroma(roi_rim, colour, params.rim_outline_band_px) <= params.rim_max_chroma
+                and (wheel := measure_wheel(Ellipse(roi_rim.centre_px + offset, roi_rim.semi_axes_px, roi_rim.angle_deg),
                                            overlap, level_dark, grey, mask, offset, vertical_vp, horizon, road_to_image,
                                            params))]
 
