@@ -189,14 +189,14 @@ RimCandidate = tuple[Ellipse, float, np.ndarray]
 
 
 def dark_levels(roi_grey: np.ndarray, mask: np.ndarray, params: WheelParams) -> list[tuple[np.ndarray, list[np.ndarray]]]:
-    """Per darkness level (dark rims need a low one): the tyre-dark pixels (uint8) of the silhouette's lower part
-    and the outlines of the holes in them."""
+    """Per darkness level (dark rims need a low one): the tyre-dark pixels (uint8) of the ROI and the outlines of the
+    holes in those of the silhouette's lower part."""
     band = lower_part(mask, params.band_fraction)
     darkest = np.percentile(roi_grey[lower_part(mask, params.dark_band_fraction)], params.dark_percentile)
     levels = []
     for contrast in params.dark_contrasts:
-        dark = (band & (roi_grey <= darkest + contrast)).astype(np.uint8)
-        contours, hierarchy = cv2.findContours(dark, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
+        dark = (roi_grey <= darkest + contrast).astype(np.uint8)
+        contours, hierarchy = cv2.findContours(dark & band, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
         holes = [contour for contour, (_, _, _, parent) in zip(contours, hierarchy[0] if hierarchy is not None else [])
                  if parent >= 0]
         levels.append((dark, holes))
@@ -319,8 +319,10 @@ def measure_wheel(
     from the rim, the vertical diameter, the horizontal vanishing point (homogeneous) and whether the tyre is
     the nominal one (the silhouette not ending below it); None when the ground is not a tyre's depth below the
     rim, the tyre between them is not dark, or the tyre is not wheel-sized. The ground is where the silhouette ends
-    below the rim, or sooner where the tyre ends above a lighter shadow that the silhouette holds: where the ROI's
-    `grey` first rises `tyre_end_contrast` above the tyre's own level (the lower quartile between rim and ground)."""
+    below the rim (where it ends less than a tyre's depth below, the level's `dark` pixels carry it on: the
+    silhouette's test took the tyre's lower part for the shadow below), or sooner where the tyre ends above a
+    lighter shadow that the silhouette holds: where the ROI's `grey` first rises `tyre_end_contrast` above the
+    tyre's own level (the lower quartile between rim and ground)."""
     from scipy.ndimage import map_coordinates  # scipy on first use: a refused CLI answers sooner
     line, horizontal_vp = vertical_diameter(rim, vertical_vp, horizon)
     line = line / np.hypot(line[0], line[1])
@@ -330,12 +332,16 @@ def measure_wheel(
     if rim_bottom_px <= 0:
         return None
     low, high = params.tyre_to_rim_range
-    measured = ground_crossing_px(mask, centre - offset_px, direction, high * rim_bottom_px + 2.0)
+    body = mask
+    measured = ground_crossing_px(body, centre - offset_px, direction, high * rim_bottom_px + 2.0)
+    if measured is not None and measured < low * rim_bottom_px:  # the silhouette ends within the tyre, whose lower
+        body = mask | dark.astype(bool)  # part was taken for the shadow below: the tyre's dark pixels carry it on
+        measured = ground_crossing_px(body, centre - offset_px, direction, high * rim_bottom_px + 2.0)
     inside_tyre = rim_bottom_px + 1.0
     if measured is not None and measured > inside_tyre:
         below = centre - offset_px + np.arange(inside_tyre, measured, 0.25)[:, None] * direction
         level = np.percentile(map_coordinates(grey, [below[:, 1], below[:, 0]], order=1, mode="nearest"), 25)
-        tyre = mask & (grey <= level + params.tyre_end_contrast)
+        tyre = body & (grey <= level + params.tyre_end_contrast)
         tyre_end = ground_crossing_px(tyre, centre - offset_px + inside_tyre * direction, direction,
                                       measured - inside_tyre + 1.0)
         if tyre_end is not None:
