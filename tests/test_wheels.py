@@ -16,7 +16,7 @@ from vehloc.geometry.chroma import chroma as chroma_of
 from vehloc.geometry.footprint import FootprintParams, detect_footprint
 from vehloc.geometry.wheels import (
     Ellipse, WheelParams, best_per_place, conic_crossings, detect_wheels, ellipse_overlap, rim_candidates, rim_chroma,
-    vertical_diameter,
+    tyre_edge_px, vertical_diameter,
 )
 
 PARAMS = WheelParams.from_config()
@@ -179,6 +179,34 @@ def test_a_silhouette_that_ends_within_the_tyres_is_carried_on_by_their_darkness
     wheels = wheels_of(case)
     assert wheels is not None and len(wheels.wheels) == 2
     assert contact_errors_px(case, wheels).max() <= 1.5
+
+
+def tyre_over_road(edge_row: float, tyre_grey: float = 20.0, road_grey: float = 90.0) -> np.ndarray:
+    """A grey image (40 x 20) of a tyre above the road, their edge at `edge_row` (px, a pixel's middle at its whole
+    row), each row the mix of the two by how much of it the tyre covers."""
+    rows = np.arange(40, dtype=float)
+    covered = np.clip(edge_row - (rows - 0.5), 0.0, 1.0)
+    return np.repeat((covered * tyre_grey + (1 - covered) * road_grey)[:, None], 20, axis=1).astype(np.float32)
+
+
+@pytest.mark.parametrize("edge_row", [30.0, 30.3, 30.5, 30.8])
+@pytest.mark.parametrize("found_px", [0.0, 0.5, 1.0])
+def test_the_tyres_edge_is_where_its_pixel_is_half_covered(edge_row, found_px):
+    """Down a column from row 20, the ground found on the tyre's edge or up to a pixel below it (a silhouette holds a
+    pixel the tyre covers in part): the edge is read where the grey is half the tyre's and half the road's, within
+    0.1 px of the drawn edge (the grey taken linearly between pixels' middles: off by up to 0.09 px)."""
+    grey = tyre_over_road(edge_row)
+    found = edge_row - 20.0 + found_px
+    edge = tyre_edge_px(grey, np.array([10.0, 20.0]), np.array([0.0, 1.0]), found, PARAMS)
+    assert edge == pytest.approx(edge_row - 20.0, abs=0.1)
+
+
+def test_the_ground_found_stands_where_the_road_below_is_as_dark_as_the_tyre_or_the_edge_is_far():
+    start, down = np.array([10.0, 20.0]), np.array([0.0, 1.0])
+    dark_road = tyre_over_road(30.3, road_grey=25.0)
+    assert tyre_edge_px(dark_road, start, down, 11.0, PARAMS) == 11.0
+    far = PARAMS.edge_reach_px + 1.0
+    assert tyre_edge_px(tyre_over_road(30.3), start, down, 10.3 + far, PARAMS) == pytest.approx(10.3 + far)
 
 
 def test_of_a_wheels_holes_at_several_darkness_levels_its_rim_is_kept_not_its_hub():

@@ -50,6 +50,8 @@ class WheelParams:
     tyre_to_rim_range: tuple[float, float]
     min_dark_tyre: float
     tyre_end_contrast: float
+    edge_min_contrast: float
+    edge_reach_px: float
     tyre_diameter_range_mm: tuple[float, float]
     tyre_width_mm: float
     wheelbase_range_mm: tuple[float, float]
@@ -71,6 +73,8 @@ class WheelParams:
             check_range(f"dark_contrasts[{i}]", contrast, 0.0, 255.0, low_open=True)
         check_range("min_dark_tyre", self.min_dark_tyre, 0.0, 1.0)
         check_range("tyre_end_contrast", self.tyre_end_contrast, 0.0, 255.0, low_open=True)
+        check_range("edge_min_contrast", self.edge_min_contrast, 0.0, 255.0)
+        check_range("edge_reach_px", self.edge_reach_px, 0.0)
         check_interval("tyre_diameter_range_mm", self.tyre_diameter_range_mm, 0.0, low_open=True)
         check_range("tyre_width_mm", self.tyre_width_mm, 0.0)
         check_interval("wheelbase_range_mm", self.wheelbase_range_mm, 0.0, low_open=True)
@@ -311,6 +315,35 @@ def tyre_diameter_mm(
     return float(np.linalg.norm(ends_mm[1] - ends_mm[0])) if np.all(np.isfinite(ends_mm)) else 0.0
 
 
+def tyre_edge_px(grey: np.ndarray, start_px: np.ndarray, direction: np.ndarray, ground_px: float,
+                 params: WheelParams) -> float:
+    """The tyre's lower edge to a fraction of a pixel, near the ground found (`ground_px` along `direction` from
+    `start_px`, ROI px): where the ROI's `grey` rises through halfway from the tyre's level (the lower quartile 1 to
+    3 px before the ground found) to the road's just below (the median 1 to 2.5 px past it), the rise nearest it
+    within `edge_reach_px`. A silhouette takes a pixel the tyre covers in part; the half level is where it covers
+    half. The ground found stands where the road below is not `edge_min_contrast` lighter than the tyre, or no rise
+    is that near."""
+    from scipy.ndimage import map_coordinates
+
+    def profile(steps: np.ndarray) -> np.ndarray:
+        points = start_px + (ground_px + steps)[:, None] * direction
+        return map_coordinates(grey, [points[:, 1], points[:, 0]], order=1, mode="nearest")
+
+    tyre = float(np.percentile(profile(np.arange(-3.0, -0.99, 0.25)), 25))
+    road = float(np.median(profile(np.arange(1.0, 2.51, 0.25))))
+    if road - tyre < params.edge_min_contrast:
+        return ground_px
+    half = (tyre + road) / 2
+    steps = np.arange(-params.edge_reach_px - 0.5, params.edge_reach_px + 0.5 + 1e-9, 0.125)
+    grey_along = profile(steps)
+    rises = np.flatnonzero((grey_along[:-1] <= half) & (grey_along[1:] > half))
+    if len(rises) == 0:
+        return ground_px
+    k = rises[np.argmin(np.abs(steps[rises]))]
+    edge = steps[k] + (half - grey_along[k]) / (grey_along[k + 1] - grey_along[k]) * 0.125
+    return ground_px + float(edge) if abs(edge) <= params.edge_reach_px else ground_px
+
+
 def measure_wheel(
     rim: Ellipse, overlap: float, dark: np.ndarray, grey: np.ndarray, mask: np.ndarray, offset_px: np.ndarray,
     vertical_vp: np.ndarray, horizon: np.ndarray, road_to_image: ProjectiveTransform, params: WheelParams,
@@ -322,7 +355,7 @@ def measure_wheel(
     below the rim (where it ends less than a tyre's depth below, the level's `dark` pixels carry it on: the
     silhouette's test took the tyre's lower part for the shadow below), or sooner where the tyre ends above a
     lighter shadow that the silhouette holds: where the ROI's `grey` first rises `tyre_end_contrast` above the
-    tyre's own level (the lower quartile between rim and ground)."""
+    tyre's own level (the lower quartile between rim and ground); then to a fraction of a pixel (`tyre_edge_px`)."""
     from scipy.ndimage import map_coordinates  # scipy on first use: a refused CLI answers sooner
     line, horizontal_vp = vertical_diameter(rim, vertical_vp, horizon)
     line = line / np.hypot(line[0], line[1])
@@ -346,6 +379,7 @@ def measure_wheel(
                                       measured - inside_tyre + 1.0)
         if tyre_end is not None:
             measured = min(measured, inside_tyre + tyre_end)
+        measured = tyre_edge_px(grey, centre - offset_px, direction, measured, params)
     # where the silhouette ends a tyre below the rim, the ground is there; where it carries on below (a shadow
     # under the car), a tyre of the nominal size is tried too
     nominal = params.tyre_to_rim_nominal * rim_bottom_px
