@@ -9,7 +9,7 @@ import pytest
 
 from vehloc.config import ConfigError
 from vehloc.geometry.camera import PinholeCamera
-from vehloc.geometry.chroma import chromaticity_shift, colour_change
+from vehloc.geometry.chroma import chroma, chromaticity_shift, colour_change
 from vehloc.geometry.roi import RoiParams, vehicle_silhouette
 from vehloc.synth.catalog import model_by_id
 from vehloc.synth.render import CarPose, Lighting, render_car, shadow_darkening
@@ -37,6 +37,14 @@ def coded_car(model_id: int, colour: int) -> tuple[np.ndarray, np.ndarray, np.nd
     shadow = beside & (shadow_darkening(CAMERA, model, POSE, Lighting()) > 0.3)
     inside = cv2.erode((render.coverage >= 1).astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
     return as_video(render.image_bgr), as_video(road), shadow, inside
+
+
+def test_a_pixels_chroma_is_its_larger_colour_difference():
+    """Grey at any lightness has none; pure red's Cr is half its value (BT.601: 127.5), pure blue's Cb the same, and
+    the renderer's tail-light red about 85 (exact to 1e-3 grey levels)."""
+    pixels = np.array([[[0, 0, 0], [128, 128, 128], [255, 255, 255], [0, 0, 255], [255, 0, 0], [26, 20, 190]]], np.uint8)
+    expected = [0.0, 0.0, 0.0, 127.5, 127.5, abs(-0.081312 * 26 - 0.418688 * 20 + 0.5 * 190)]
+    assert chroma(pixels)[0] == pytest.approx(expected, abs=1e-3)
 
 
 def test_a_shadow_keeps_the_roads_chromaticity_and_paint_does_not():

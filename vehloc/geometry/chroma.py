@@ -3,7 +3,8 @@
 A shadow darkens the road and keeps its chromaticity (each of b, g, r over their sum); a coloured body changes it.
 Video codecs store colour (Cb, Cr) at half the resolution of brightness, so beside a saturated vehicle its colour
 bleeds about a pixel into its own shadow, which then reads as coloured. `chromaticity_shift` measures the change,
-and within `bleed_px` of a pixel whose colour changed (`colour_change`) takes the least change in that reach."""
+and within `bleed_px` of a pixel whose colour changed (`colour_change`) takes the least change in that reach.
+`chroma` says how far a pixel's own colour lies from grey (a wheel's rim is grey, a lit lamp is not)."""
 
 from __future__ import annotations
 
