@@ -189,7 +189,8 @@ def lower_part(mask: np.ndarray, fraction: float) -> np.ndarray:
 
 
 RimCandidate = tuple[Ellipse, float, np.ndarray]
-"""A rim fitted to an outline (ROI px), how well the outline fills it (IoU) and its darkness level's dark pixels."""
+"""A rim fitted to an outline (ROI px), how well the outline fills it (`ellipse_overlap`) and its darkness level's
+dark pixels."""
 
 
 def dark_levels(roi_grey: np.ndarray, mask: np.ndarray, params: WheelParams) -> list[tuple[np.ndarray, list[np.ndarray]]]:
@@ -231,7 +232,7 @@ def ellipse_overlap(rim: Ellipse, hole: np.ndarray, band_px: float) -> float:
     """How well a hole (bool pixels) fills its fitted ellipse: one less the share of their union that is wrong, a
     pixel of the ellipse missing from the hole or one of the hole outside the ellipse, where pixels within `band_px`
     of the ellipse's outline are wrong neither way (which side of the outline they fall on is the digitization's
-    call: at a rim a few pixels across, that band is a third of the ellipse)."""
+    call: at a rim a few pixels across, that band holds half its pixels or more)."""
     inside = rim.mask(hole.shape)
     inner = Ellipse(rim.centre_px, np.maximum(rim.semi_axes_px - band_px, 0.0), rim.angle_deg).mask(hole.shape)
     outer = Ellipse(rim.centre_px, rim.semi_axes_px + band_px, rim.angle_deg).mask(hole.shape)
@@ -248,7 +249,7 @@ def rim_chroma(rim: Ellipse, colour: np.ndarray, band_px: float) -> float:
 
 def rim_candidates(roi_grey: np.ndarray, mask: np.ndarray, params: WheelParams, spoked: bool = False) -> list[RimCandidate]:
     """Ellipses fitted to the outlines of the holes in the tyre-dark pixels of the silhouette's lower part, at each
-    darkness level, with how well each hole fills its ellipse (intersection over union) and that level's dark
+    darkness level, with how well each hole fills its ellipse (`ellipse_overlap`) and that level's dark
     pixels. A wheel may give a hole at several levels (its rim at a low one, only its hub at a higher one, where a
     grey rim counts as dark): all are kept, to be measured as wheels. With `spoked`, the outlines of spoked rims
     grouped from their gaps (`spoked_rims`) are tried too, after each level's holes."""
