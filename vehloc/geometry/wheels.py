@@ -118,6 +118,10 @@ class Ellipse:
         """The ellipse scaled about its centre."""
         return Ellipse(self.centre_px, self.semi_axes_px * factor, self.angle_deg)
 
+    def grown(self, by_px: float, least_px: float = 0.0) -> Ellipse:
+        """The ellipse with each semi-axis `by_px` longer (shorter where negative), none under `least_px`."""
+        return Ellipse(self.centre_px, np.maximum(self.semi_axes_px + by_px, least_px), self.angle_deg)
+
     def mask(self, shape: tuple[int, int]) -> np.ndarray:
         """Pixels (bool) inside the ellipse."""
         canvas = np.zeros(shape, np.uint8)
@@ -234,8 +238,7 @@ def ellipse_overlap(rim: Ellipse, hole: np.ndarray, band_px: float) -> float:
     of the ellipse's outline are wrong neither way (which side of the outline they fall on is the digitization's
     call: at a rim a few pixels across, that band holds half its pixels or more)."""
     inside = rim.mask(hole.shape)
-    inner = Ellipse(rim.centre_px, np.maximum(rim.semi_axes_px - band_px, 0.0), rim.angle_deg).mask(hole.shape)
-    outer = Ellipse(rim.centre_px, rim.semi_axes_px + band_px, rim.angle_deg).mask(hole.shape)
+    inner, outer = rim.grown(-band_px).mask(hole.shape), rim.grown(band_px).mask(hole.shape)
     wrong = np.count_nonzero(inner & ~hole) + np.count_nonzero(hole & ~outer)
     return 1.0 - wrong / np.count_nonzero(inside | hole)
 
@@ -243,7 +246,7 @@ def ellipse_overlap(rim: Ellipse, hole: np.ndarray, band_px: float) -> float:
 def rim_chroma(rim: Ellipse, colour: np.ndarray, band_px: float) -> float:
     """The median chroma (`vehloc.geometry.chroma.chroma`) inside a rim, `band_px` in from its outline. A rim is grey
     metal; a lit lamp in a dark body is a hole of its shape too, and coloured."""
-    inner = Ellipse(rim.centre_px, np.maximum(rim.semi_axes_px - band_px, 0.5), rim.angle_deg).mask(colour.shape)
+    inner = rim.grown(-band_px, least_px=0.5).mask(colour.shape)
     return float(np.median(colour[inner])) if inner.any() else 0.0
 
 
@@ -369,7 +372,7 @@ def measure_wheel(
     body = mask
     measured = ground_crossing_px(body, centre - offset_px, direction, high * rim_bottom_px + 2.0)
     if measured is not None and measured < low * rim_bottom_px:  # the silhouette ends within the tyre, whose lower
-        body = mask | dark.astype(bool)  # part was taken for the shadow below: the tyre's dark pixels carry it on
+        body = mask | dark  # part was taken for the shadow below: the tyre's dark pixels carry it on
         measured = ground_crossing_px(body, centre - offset_px, direction, high * rim_bottom_px + 2.0)
     inside_tyre = rim_bottom_px + 1.0
     if measured is not None and measured > inside_tyre:
