@@ -4,10 +4,8 @@ The plate branch, first: O is the footprint point below the plate's middle P, wh
 vertical through P (towards the camera's vertical vanishing point) meets the end's bottom edge, found on the
 image's profile below the plate (`vehloc.geometry.end_bottom`), or, where that edge is not found, the front
 line l_F; C lies along the length axis, into the vehicle (perpendicular to the line through the rear lamps either
-side of the plate, where a pair is found (`vehloc.geometry.lamps`); else, for a small plate, to the end's lower
-outline below it where that is a line known within a degree that the plate's edges agree with
-(`vehloc.geometry.level_lines`); else to the plate's upper and lower edges on the road; for a small plate only when
-they agree with the side line's direction, else along it); the box's
+side of the plate, where a pair is found (`vehloc.geometry.lamps`), else to the plate's upper and lower edges on the
+road; for a small plate only when they agree with the side line's direction, else along it); the box's
 visible end is stuck to O_W with its long centreline along O_W C_W. The plate also says which of the two axes
 the body's edges show is the length axis (the one across the plate's edges): an end seen head-on shows little
 of its sides. A plate-like part that no
@@ -37,7 +35,6 @@ from vehloc.data.specs import VehicleSpec
 from vehloc.geometry.end_bottom import EndBottomParams, end_bottom_px
 from vehloc.geometry.footprint import FootprintLines, FootprintParams, detect_footprint
 from vehloc.geometry.lamps import LampParams, rear_lamps
-from vehloc.geometry.level_lines import end_line_heading_deg, level_lines_direction_deg
 from vehloc.geometry.placement import VehicleBox, direction_of, heading_of, place_on_end, place_on_side
 from vehloc.geometry.plate import Plate, PlateParams, plate_candidates
 from vehloc.geometry.outcome import NotPlaced, ReasonCode
@@ -119,6 +116,14 @@ def lowered_points_mm(points_mm: np.ndarray, height_mm: float, camera_centre_mm:
     foot_mm = np.asarray(camera_centre_mm, dtype=float)[:2]
     k = (camera_centre_mm[2] - height_mm) / camera_centre_mm[2]
     return foot_mm + k * (np.asarray(points_mm, dtype=float).reshape(-1, 2) - foot_mm)
+
+
+def level_lines_direction_deg(lines_px: np.ndarray, road_to_image: ProjectiveTransform) -> float:
+    """The road direction (deg, [0, 180)) of level 3D lines seen as the image lines `lines_px` (n, 3), their mean:
+    each maps by the inverse homography to a road line of its own direction."""
+    road_lines = road_to_image.inverse.map_lines(np.atleast_2d(lines_px))
+    doubled = 2.0 * np.arctan2(-road_lines[:, 0], road_lines[:, 1])
+    return float(np.degrees(np.angle(np.exp(1j * doubled).sum())) / 2.0 % 180.0)
 
 
 def plate_width_heading_deg(plate: Plate, road_to_image: ProjectiveTransform) -> float:
@@ -226,8 +231,7 @@ def paper_placement(
     (on or above the horizon).
 
     Plate branch: the length axis is perpendicular to the line through the rear lamps either side of the plate,
-    or to a small plate's end's lower outline (where it is a line known closely that the plate agrees with), or to the
-    plate's edges (a small plate's when they agree with the body's lines); O lies on the end's bottom edge
+    or to the plate's edges (a small plate's when they agree with the body's lines); O lies on the end's bottom edge
     below P, found in the image where the end meets the road (`below_plate_on_end_mm`), else on the front footprint
     line, the lower edge at the visible end of the silhouette trimmed of the shadow below it; either edge is the
     bumper's, a bumper's height above the road, so it is lowered to the road by that height, the predicted model's
@@ -266,9 +270,6 @@ def _plate_placement(
         return lines
     heading = rear_lamps_heading_deg(plate, roi_bgr, silhouette.mask, offset, road_to_image, params.plate.rear_lamps,
                                      visible_end)
-    if heading is None and plate.small:
-        heading = end_line_heading_deg(silhouette.trimmed(), offset, plate.corners_px, plate.centre_px, road_to_image,
-                                       params.plate.end_line)
     if heading is None:
         heading = plate_length_heading_deg(plate, road_to_image, lines.length_heading_deg,
                                            params.plate.heading_agreement_deg)

@@ -30,7 +30,6 @@ import numpy as np
 
 from vehloc.config import check_interval, check_range, params_from_config
 from vehloc.geometry.lamps import LampParams
-from vehloc.geometry.level_lines import EndLineParams
 from vehloc.geometry.silhouette import PIXEL_CORNERS
 
 @dataclass(frozen=True)
@@ -66,7 +65,6 @@ class PlateParams:
     width_range_mm: tuple[float, float]
     max_height_mm: float
     rear_lamps: LampParams
-    end_line: EndLineParams
 
     def __post_init__(self) -> None:
         check_interval("hue_range", self.hue_range, 0, 180)  # OpenCV's 8-bit hue
