@@ -1,7 +1,6 @@
 """The road's shadow beside a vehicle (`vehloc.geometry.road_shadow`): its darkening where the footprint's geometry
 puts it, its fit recovering a known shadow from the light ratio, the refit that takes it out of the silhouette, and
-the restarts along the line of sight where it leaves the doubtful pixels outside the vehicle unexplained, and the
-doubtful pixels beyond any shadow's reach, which are the vehicle's."""
+the restarts along the line of sight where it leaves the doubtful pixels outside the vehicle unexplained."""
 
 from __future__ import annotations
 
@@ -18,16 +17,13 @@ from vehloc.geometry.model_fit import FitParams, ModelFit, coverage, fit_model, 
 from vehloc.geometry.placement import VehicleBox
 from vehloc.geometry.road_shadow import (
     RoadShadow,
-    beyond_shadow_reach,
     darkening,
-    distance_to_footprint_mm,
     fit_road_shadow,
     light_ratio_smoothed,
     refit_with_restarts,
     refit_without_shadow,
     shadow_edge_shares,
     shadow_pixels,
-    shadow_reach_mm,
     undecided_edge,
     unexplained_outside,
 )
@@ -245,78 +241,3 @@ def test_a_refit_whose_shadow_explains_the_outside_is_not_restarted():
     assert restarted.evaluations == refit.evaluations
     assert np.array_equal(restarted.box.centre_mm, refit.box.centre_mm)
     assert np.array_equal(weights, refit_weights, equal_nan=True)
-
-
-def test_the_distance_to_a_footprint_is_zero_inside_and_to_its_nearest_edge_or_corner_outside():
-    """Exact (1e-9 mm): inside, 500 mm beyond the front's middle, 300 mm beside the side, and off a corner by
-    (300, 400) mm along the box's axes (500 mm)."""
-    box = VehicleBox(np.array([1000.0, 8000.0]), 30.0, 4000.0, 2000.0)
-    along = np.array([np.cos(np.radians(30.0)), np.sin(np.radians(30.0))])
-    across = np.array([-along[1], along[0]])
-    points = box.centre_mm + np.array([[0.0, 0.0], 1900.0 * along + 900.0 * across, 2500.0 * along,
-                                       -1300.0 * across, 2300.0 * along + 1400.0 * across])
-    np.testing.assert_allclose(distance_to_footprint_mm(points, box), [0.0, 0.0, 500.0, 300.0, 500.0], atol=1e-9)
-
-
-def test_a_shadow_reaches_the_height_over_the_tangent_of_the_lowest_sun():
-    assert shadow_reach_mm(SHAPE, 25.0) == pytest.approx(1450.0 / np.tan(np.radians(25.0)))
-    assert shadow_reach_mm(SHAPE, 0.0) == float("inf")
-
-
-def test_pixels_whose_road_point_lies_beyond_the_reach_or_none_are_flagged():
-    """The pixels imaging road points 1 m and 6 m beyond the footprint's far side, and one above the horizon, with a
-    reach of 3 m: only the 6 m one and the one above the horizon (a pixel's rounding moves its road point by well
-    under the 2 m margins here)."""
-    sight = TRUTH.centre_mm - CAMERA.centre_mm[:2]
-    sight /= np.linalg.norm(sight)
-    far_side_mm = TRUTH.centre_mm + sight * (distance_to_far_side_mm := 1400.0)
-    road_to_image = CAMERA.road_to_image()
-    near, far = np.round(road_to_image(np.array([far_side_mm + 1000.0 * sight, far_side_mm + 6000.0 * sight]))).astype(int)
-    roi = Box(0, 0, 1280, 720)
-    pixels = np.zeros((720, 1280), bool)
-    pixels[near[1], near[0]] = pixels[far[1], far[0]] = pixels[5, 640] = True
-    beyond = beyond_shadow_reach(CAMERA, pixels, roi, TRUTH, 3000.0)
-    assert not beyond[near[1], near[0]] and beyond[far[1], far[0]] and beyond[5, 640]
-    assert beyond.sum() == 2
-    assert not beyond_shadow_reach(CAMERA, pixels, roi, TRUTH, float("inf")).any()
-    assert distance_to_far_side_mm < np.ptp(TRUTH.corners_mm() @ sight)
-
-
-FAR_TRUTH = VehicleBox(np.array([800.0, 24000.0]), 20.0, 4600.0, 1800.0)
-FAR_ROI = Box(568, 88, 765, 188)
-"""A car 30 m from the camera's foot and the ROI around it."""
-
-
-def dark_top_silhouette() -> Silhouette:
-    """The far car, light (ratio 1.5) but for its upper third (windows, roof): dark (ratio 0.2), doubtful and
-    weighing 0.5; no shadow on the road."""
-    car = silhouette(CAMERA, SHAPE, FAR_TRUTH, FAR_ROI, 1)
-    rows = np.nonzero(car.any(axis=1))[0]
-    upper = car & (np.arange(car.shape[0])[:, None] < rows[0] + (rows[-1] - rows[0]) // 3)
-    covered = coverage(CAMERA, SHAPE, FAR_TRUTH, FAR_ROI, 8)
-    outline = (covered > 0.0) & (covered < 1.0) & ~upper
-    noise = np.random.default_rng(0).normal(0.0, 0.04, car.shape)
-    ratio = (covered * np.where(upper, 0.2, 1.5) + (1.0 - covered) + noise).astype(np.float32)
-    return Silhouette(car, np.where(car, np.where(upper, 0.5, 1.0), 0.0).astype(np.float32), upper, car & ~upper,
-                      ratio, 3, np.where(outline, covered, np.nan))
-
-
-def test_dark_windows_beyond_any_shadow_weigh_as_the_car_in_the_refit():
-    """The dark upper third of a car 30 m away: the rays of most of its pixels meet the road further than the 3.1 m a
-    shadow reaches from the footprint with the sun 25 deg up, so they weigh 1 in the refit (measured: 91 %; with
-    `shadow_min_sun_elevation_deg` 0 they keep their half, 87 %, the rest read as the outline's shares). Either way the refit from a start 150 mm and 1 deg
-    off lands within 15 mm and 0.2 deg (measured 9.6 and 9.2 mm, 0.09 deg): on exact weights the half weight costs
-    little; the benchmark's silhouettes, which lose a far car's dark top, are where it tells."""
-    weighed = dark_top_silhouette()
-    params = FitParams.from_config()
-    start = replace(FAR_TRUTH, centre_mm=FAR_TRUTH.centre_mm + [150.0, 0.0], heading_deg=21.0)
-    plain = fit_model(CAMERA, weighed.weights_at_edges(), FAR_ROI, SHAPE, start, params)
-    reached, weights = refit_without_shadow(CAMERA, weighed, FAR_ROI, SHAPE, plain, params)
-    halved, halved_weights = refit_without_shadow(CAMERA, weighed, FAR_ROI, SHAPE, plain,
-                                                  replace(params, shadow_min_sun_elevation_deg=0.0))
-    assert (weights[weighed.doubtful] == 1.0).mean() > 0.85
-    assert (halved_weights[weighed.doubtful] == 0.5).mean() > 0.8
-    assert not (weights[weighed.doubtful] == 0.5).any()
-    for fit in (reached, halved):
-        assert np.linalg.norm(fit.box.centre_mm - FAR_TRUTH.centre_mm) < 15.0
-        assert abs(fit.box.heading_deg - FAR_TRUTH.heading_deg) < 0.2

@@ -55,7 +55,6 @@ class FitParams:
     shadow_edge_undecided_weight: float
     shadow_restart_mm: float
     shadow_restart_below: float
-    shadow_min_sun_elevation_deg: float
 
     def __post_init__(self) -> None:
         check_range("supersample", self.supersample, 1, MAX_SUPERSAMPLE)
@@ -73,7 +72,6 @@ class FitParams:
         check_range("shadow_edge_undecided_weight", self.shadow_edge_undecided_weight, 0.0, 1.0)
         check_range("shadow_restart_mm", self.shadow_restart_mm, 0.0)
         check_range("shadow_restart_below", self.shadow_restart_below, 0.0, 1.0)
-        check_range("shadow_min_sun_elevation_deg", self.shadow_min_sun_elevation_deg, 0.0, 90.0, high_open=True)
 
     def supersample_for(self, roi: Box) -> int:
         """The grid's multiple of the image resolution over `roi`: `supersample`, or more (up to `MAX_SUPERSAMPLE`)

@@ -5,10 +5,7 @@ dark paint); the silhouette cannot tell them apart pixel by pixel and weighs the
 the road's darkening is smooth, so a few numbers model it: the footprint on the road, grown and shifted away from the
 light, soft-edged and uniformly dark (`RoadShadow`). It is fitted to the light ratio (frame over background) of the
 pixels outside the vehicle's projected shape (`fit_road_shadow`), and the doubtful pixels whose ratio it explains are
-the shadow; the others, whose light it does not explain, are the vehicle's (`shadow_pixels`). Nor can a shadow lie
-further from the footprint than the vehicle's height over the tangent of the sun's elevation: a doubtful pixel whose
-road point (where its ray meets the road) lies beyond that is the vehicle's own, a window or dark paint high on the
-body whose ray meets the road far behind it (`beyond_shadow_reach`). A grey vehicle on a grey
+the shadow; the others, whose light it does not explain, are the vehicle's (`shadow_pixels`). A grey vehicle on a grey
 road can be refitted to a pose off along the line of sight that overlaps its weights as well; its fitted shadow then
 leaves the doubtful pixels outside it unexplained (`unexplained_outside`), and the refit is started again from either
 side (`refit_with_restarts`). Where the vehicle meets its shadow, an outline pixel's light mixes the vehicle's and
@@ -168,50 +165,9 @@ def undecided_edge(light_ratio: np.ndarray, outside: np.ndarray, fitted: np.ndar
     return undecided
 
 
-def shadow_reach_mm(shape: VehicleShape, min_sun_elevation_deg: float) -> float:
-    """How far from its footprint a vehicle's road shadow can reach: its height over the tangent of the lowest sun
-    (infinite for a sun at 0 deg: no limit)."""
-    if min_sun_elevation_deg <= 0.0:
-        return float("inf")
-    return float(shape.points_mm[:, 2].max()) / float(np.tan(np.radians(min_sun_elevation_deg)))
-
-
-def distance_to_footprint_mm(points_mm: np.ndarray, box: VehicleBox) -> np.ndarray:
-    """Each road point's (N, 2) distance (mm) from the footprint `box` (0 inside it)."""
-    corners = box.corners_mm()
-    starts, ends = corners, np.roll(corners, -1, axis=0)
-    along = ends - starts
-    t = np.clip(np.einsum("nkd,kd->nk", points_mm[:, None, :] - starts[None], along) / np.sum(along**2, axis=1), 0, 1)
-    nearest = starts[None] + t[..., None] * along[None]
-    distance = np.linalg.norm(points_mm[:, None, :] - nearest, axis=2).min(axis=1)
-    cross = along[None, :, 0] * (points_mm[:, None, 1] - starts[None, :, 1]) - along[None, :, 1] * (
-        points_mm[:, None, 0] - starts[None, :, 0])
-    inside = np.all(cross >= 0, axis=1) | np.all(cross <= 0, axis=1)
-    return np.where(inside, 0.0, distance)
-
-
-def beyond_shadow_reach(camera: PinholeCamera, pixels: np.ndarray, roi: Box, box: VehicleBox,
-                        reach_mm: float) -> np.ndarray:
-    """Which of the ROI's `pixels` (bool) have a road point (where the pixel's ray meets the road) further than
-    `reach_mm` from the footprint `box`, or none at all (at or above the horizon): no road shadow of the vehicle
-    lies there (bool, the ROI's shape)."""
-    beyond = np.zeros(pixels.shape, bool)
-    rows, cols = np.nonzero(pixels)
-    if not len(rows) or not np.isfinite(reach_mm):
-        return beyond
-    road_mm = camera.road_to_image().inverse(np.column_stack([cols + roi.x0, rows + roi.y0]).astype(float))
-    seen = np.all(np.isfinite(road_mm), axis=1)
-    far = ~seen
-    far[seen] = distance_to_footprint_mm(road_mm[seen], box) > reach_mm
-    beyond[rows[far], cols[far]] = True
-    return beyond
-
-
 def refit_without_shadow(camera: PinholeCamera, silhouette: Silhouette, roi: Box, shape: VehicleShape, fit: ModelFit,
                          params: FitParams) -> tuple[ModelFit, np.ndarray]:
-    """`params.shadow_passes` times: the silhouette's doubtful pixels (their outline shares not read) beyond the
-    reach of any road shadow from `fit`'s footprint weighing 1 (`beyond_shadow_reach`, with
-    `params.shadow_min_sun_elevation_deg`); the road's shadow fitted around `fit`'s pose, the other doubtful pixels
+    """`params.shadow_passes` times: the road's shadow fitted around `fit`'s pose, the silhouette's doubtful pixels
     it explains taken out of the fit's weights (the outline's shares in place: `Silhouette.weights_at_edges`), those
     near the fitted outline, and the pixels there that the shadow darkens (by `params.shadow_min_darkening` or more:
     their colour's share, read against the unshadowed road, does not hold), weighing the share of them the vehicle
@@ -222,16 +178,12 @@ def refit_without_shadow(camera: PinholeCamera, silhouette: Silhouette, roi: Box
     ratio = light_ratio_smoothed(silhouette.light_ratio)
     weights = shared = silhouette.weights_at_edges()
     refit_params = replace(params, try_reversed=False)
-    reach_mm = shadow_reach_mm(shape, params.shadow_min_sun_elevation_deg)
-    shares_read = (np.zeros(shared.shape, bool) if silhouette.edge_share is None
-                   else ~np.isnan(silhouette.edge_share))
     for _ in range(params.shadow_passes):
-        own = beyond_shadow_reach(camera, silhouette.doubtful & ~shares_read, roi, fit.box, reach_mm)
         shadow = fit_road_shadow(camera, shape, fit.box, roi, ratio, params.shadow_grid_px,
                                  params.shadow_max_evaluations)
         shade = darkening(camera, fit.box, roi, shadow)
         shadowed = shadow_pixels(ratio, shade, params.shadow_ratio_tolerance, params.shadow_min_darkening)
-        weights = np.where(silhouette.doubtful & shadowed & ~own, 0.0, np.where(own, 1.0, shared))
+        weights = np.where(silhouette.doubtful & shadowed, 0.0, shared)
         if params.shadow_edge_band_px:
             fitted = coverage(camera, shape, fit.box, roi, 1) >= 0.5
             shaded = silhouette.doubtful | (shade >= params.shadow_min_darkening)
