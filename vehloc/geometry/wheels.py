@@ -369,28 +369,29 @@ def measure_wheel(
     if rim_bottom_px <= 0:
         return None
     low, high = params.tyre_to_rim_range
+    start, search_px = centre - offset_px, high * rim_bottom_px + 2.0  # ROI px
     body = mask
-    measured = ground_crossing_px(body, centre - offset_px, direction, high * rim_bottom_px + 2.0)
+    measured = ground_crossing_px(body, start, direction, search_px)
     if measured is not None and measured < low * rim_bottom_px:  # the silhouette ends within the tyre, whose lower
         body = mask | dark  # part was taken for the shadow below: the tyre's dark pixels carry it on
-        measured = ground_crossing_px(body, centre - offset_px, direction, high * rim_bottom_px + 2.0)
+        measured = ground_crossing_px(body, start, direction, search_px)
     inside_tyre = rim_bottom_px + 1.0
     if measured is not None and measured > inside_tyre:
-        below = centre - offset_px + np.arange(inside_tyre, measured, 0.25)[:, None] * direction
+        below = start + np.arange(inside_tyre, measured, 0.25)[:, None] * direction
         level = np.percentile(map_coordinates(grey, [below[:, 1], below[:, 0]], order=1, mode="nearest"), 25)
         tyre = body & (grey <= level + params.tyre_end_contrast)
-        tyre_end = ground_crossing_px(tyre, centre - offset_px + inside_tyre * direction, direction,
+        tyre_end = ground_crossing_px(tyre, start + inside_tyre * direction, direction,
                                       measured - inside_tyre + 1.0)
         if tyre_end is not None:
             measured = min(measured, inside_tyre + tyre_end)
-        measured = tyre_edge_px(grey, centre - offset_px, direction, measured, params)
+        measured = tyre_edge_px(grey, start, direction, measured, params)
     # where the silhouette ends a tyre below the rim, the ground is there; where it carries on below (a shadow
     # under the car), a tyre of the nominal size is tried too
     nominal = params.tyre_to_rim_nominal * rim_bottom_px
     reaches = [measured] if measured is not None and low * rim_bottom_px <= measured <= high * rim_bottom_px else []
     reaches += [nominal] if measured is None or measured > nominal else []
     for reach in reaches:
-        tyre = centre - offset_px + np.linspace(rim_bottom_px, reach, 8)[1:-1, None] * direction
+        tyre = start + np.linspace(rim_bottom_px, reach, 8)[1:-1, None] * direction
         tyre_dark = float(map_coordinates(dark.astype(np.float32), [tyre[:, 1], tyre[:, 0]], order=0).mean())
         score = overlap * tyre_dark
         diameter_mm = tyre_diameter_mm(rim.scaled(reach / rim_bottom_px), vertical_vp, centre, road_to_image)
