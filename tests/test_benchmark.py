@@ -17,6 +17,7 @@ from hydra import compose, initialize_config_dir
 from omegaconf import OmegaConf
 
 from vehloc.benchmark.cases import COLOUR_GROUPS, colour_group, draw_case, in_view
+from vehloc.benchmark.paired import compare_runs, read_cases
 from vehloc.benchmark.report import gate_lines, view_of, wilson_interval_pct, with_groups, write_report
 from vehloc.benchmark.runner import STOP_LOOKAHEAD_FRAMES, localize_stopped_car, run_case, true_box
 from vehloc.benchmark.suite import BenchmarkSettings, failed_row, run_benchmark, short_reason
@@ -206,6 +207,9 @@ def test_the_development_subset_holds_its_rates(tmp_path: Path):
     assert int(grouped["key_points_found"].fillna(0).sum()) >= GATE_KEY_POINTS
     written = write_report(frame, tmp_path, "gate", [o.picture_bgr for o in outcomes if o.picture_bgr is not None])
     assert {p.name for p in written} >= {"cases.csv", "groups.csv", "report.md", "errors.png"}
+    run = read_cases(tmp_path)  # the written run is one the comparison of two runs reads
+    gates = {g.gate: g for g in compare_runs(run, run).gates}
+    assert gates["fit_within"].after_pct == pytest.approx(100.0 * fit_within / grouped["fit_within"].count())
 
 
 def test_a_whole_car_whose_shadow_alone_reaches_the_frame_edge_is_localized(settings: BenchmarkSettings):

@@ -1,0 +1,184 @@
+"""Two runs of the localization benchmark on the same cases, compared case by case: per split and gate, the cases
+each run passes, the ones gained and lost, and the exact McNemar test of whether the change moved the rate (only
+the cases that changed sides carry evidence; a run of 200 cases moves by a few cases on chance alone); per error
+column, how many cases got better and worse and the sign test on them; and the cases that changed."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from vehloc.benchmark.report import GATES
+from vehloc.errors import DataError
+
+DRAW_COLUMNS = ("model_id", "camera_name", "x_mm", "y_mm", "heading_deg")
+"""What makes a case the same case in two runs: its seed drew the same car, camera and pose."""
+ERROR_COLUMNS = ("fit_position_pct", "fit_heading_deg", "paper_position_pct", "paper_heading_deg")
+SHOWN_COLUMNS = ("status", "key_point", *ERROR_COLUMNS)
+"""Per changed case, each run's value of these beside each other."""
+REQUIRED_COLUMNS = ("split", "seed", "model", "status", "key_point", *DRAW_COLUMNS, *GATES)
+POOLED = "all"
+"""The split name of the rows over every split's cases together."""
+MOVE_TOLERANCE = 0.01
+"""An error moved when it changed by more than this (per cent or deg): the CSV's three decimals are noise below."""
+DRAW_TOLERANCE = 1e-3 + 1e-9
+"""Pose columns agree within the CSV's rounding."""
+
+
+@dataclass(frozen=True)
+class GateChange:
+    """One gate of one split in both runs: the rate over each run's own cases of the gate (per cent), the seeds
+    it gained and lost among the cases in the gate in both, and the exact McNemar p-value of those."""
+
+    split: str
+    gate: str
+    cases: int
+    before_pct: float
+    after_pct: float
+    gained: tuple[int, ...]
+    lost: tuple[int, ...]
+    p_value: float
+
+
+@dataclass(frozen=True)
+class ErrorChange:
+    """One error column of one split over the cases with a value in both runs: how many got better (smaller by
+    more than `MOVE_TOLERANCE`) and worse, the median change (after - before) and the sign test's p-value."""
+
+    split: str
+    column: str
+    cases: int
+    better: int
+    worse: int
+    median_change: float
+    p_value: float
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """Two runs compared: each gate and error column per split, and the cases whose outcome changed (one row
+    each, the runs' values in `<column>_before` and `<column>_after`)."""
+
+    gates: tuple[GateChange, ...]
+    errors: tuple[ErrorChange, ...]
+    changed: pd.DataFrame
+
+
+def sign_test_p(wins: int, losses: int) -> float:
+    """The exact two-sided sign test of `wins` against `losses` (the binomial with p = 1/2 over their sum): the
+    chance of a split at least this uneven were either side as likely; 1 with none of either. On the cases that
+    changed sides of a gate it is the exact McNemar test."""
+    if wins < 0 or losses < 0:
+        raise ValueError(f"counts must be >= 0, got {wins} and {losses}")
+    total = wins + losses
+    if total == 0:
+        return 1.0
+    tail = sum(math.comb(total, k) for k in range(min(wins, losses) + 1)) / 2.0 ** total
+    return min(1.0, 2.0 * tail)
+
+
+def read_cases(path: str | Path) -> pd.DataFrame:
+    """A run's `cases.csv` (or the run folder holding it); DataError naming the file when it is missing or lacks
+    a column the comparison needs, or a seed is in it twice."""
+    path = Path(path)
+    csv = path / "cases.csv" if path.is_dir() else path
+    if not csv.is_file():
+        raise DataError(f"{csv}: no such file (a benchmark run's folder or its cases.csv)")
+    try:
+        frame = pd.read_csv(csv)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as err:
+        raise DataError(f"{csv}: not a benchmark's cases.csv ({err})") from None
+    missing = [column for column in REQUIRED_COLUMNS if column not in frame]
+    if missing:
+        raise DataError(f"{csv}: not a benchmark's cases.csv: no column {', '.join(missing)}")
+    twice = frame["seed"][frame["seed"].duplicated()]
+    if len(twice):
+        raise DataError(f"{csv}: seed {int(twice.iloc[0])} is in it twice")
+    for column in ERROR_COLUMNS:
+        if column not in frame:
+            frame[column] = np.nan  # no case of the run had that method's estimate
+    return frame.set_index("seed", drop=False).rename_axis(None)
+
+
+def check_same_cases(before: pd.DataFrame, after: pd.DataFrame, names: tuple[str, str]) -> None:
+    """DataError unless both runs hold the same seeds, each drawn as the same case (`DRAW_COLUMNS`)."""
+    only_before, only_after = before.index.difference(after.index), after.index.difference(before.index)
+    if len(only_before) or len(only_after):
+        side, seeds = (names[0], only_before) if len(only_before) else (names[1], only_after)
+        raise DataError(f"{side}: holds {len(seeds)} seed(s) the other run does not (first {int(seeds[0])}); "
+                        f"compare runs of the same split and number of cases")
+    after = after.loc[before.index]
+    for column in DRAW_COLUMNS:
+        if pd.api.types.is_numeric_dtype(before[column]) and pd.api.types.is_numeric_dtype(after[column]):
+            differs = ~np.isclose(before[column], after[column], rtol=0.0, atol=DRAW_TOLERANCE)
+        else:
+            differs = before[column].astype(str).to_numpy() != after[column].astype(str).to_numpy()
+        if differs.any():
+            seed = int(before.index[np.argmax(differs)])
+            raise DataError(f"{names[1]}: seed {seed} is not the case of {names[0]} ({column} "
+                            f"{after.at[seed, column]} against {before.at[seed, column]}): the runs drew their "
+                            f"cases with different settings")
+
+
+def gate_change(split: str, gate: str, before: pd.DataFrame, after: pd.DataFrame) -> GateChange:
+    """One gate over one split's cases (the same seeds in the same order in both frames)."""
+    b, a = before[gate].to_numpy(dtype=float), after[gate].to_numpy(dtype=float)
+    both = ~np.isnan(b) & ~np.isnan(a)
+    seeds = before.index.to_numpy()
+    gained = tuple(int(s) for s in seeds[both & (b < 0.5) & (a >= 0.5)])
+    lost = tuple(int(s) for s in seeds[both & (b >= 0.5) & (a < 0.5)])
+    return GateChange(split, gate, int(both.sum()), 100.0 * float(np.nanmean(b)) if (~np.isnan(b)).any() else np.nan,
+                      100.0 * float(np.nanmean(a)) if (~np.isnan(a)).any() else np.nan, gained, lost,
+                      sign_test_p(len(gained), len(lost)))
+
+
+def error_change(split: str, column: str, before: pd.DataFrame, after: pd.DataFrame) -> ErrorChange:
+    """One error column over one split's cases with a value in both runs."""
+    change = (after[column] - before[column]).dropna().to_numpy(dtype=float)
+    better, worse = int((change < -MOVE_TOLERANCE).sum()), int((change > MOVE_TOLERANCE).sum())
+    return ErrorChange(split, column, len(change), better, worse, float(np.median(change)) if len(change) else np.nan,
+                       sign_test_p(better, worse))
+
+
+def changed_cases(before: pd.DataFrame, after: pd.DataFrame) -> pd.DataFrame:
+    """The cases whose status, key point or a gate changed, or an error moved by more than `MOVE_TOLERANCE`: what
+    each case is, then each shown column before and after, then per gate `gained`, `lost` or blank."""
+    moved = np.zeros(len(before), dtype=bool)
+    for column in ("status", "key_point"):
+        moved |= before[column].fillna("").astype(str).to_numpy() != after[column].fillna("").astype(str).to_numpy()
+    for column in GATES:
+        b, a = before[column].to_numpy(dtype=float), after[column].to_numpy(dtype=float)
+        moved |= ~((b == a) | (np.isnan(b) & np.isnan(a)))
+    for column in ERROR_COLUMNS:
+        b, a = before[column].to_numpy(dtype=float), after[column].to_numpy(dtype=float)
+        moved |= (np.abs(a - b) > MOVE_TOLERANCE) | (np.isnan(a) != np.isnan(b))
+    rows = pd.DataFrame({"split": before["split"], "seed": before["seed"], "model": before["model"],
+                         "camera_name": before["camera_name"]})
+    for column in SHOWN_COLUMNS:
+        rows[f"{column}_before"], rows[f"{column}_after"] = before[column], after[column]
+    for gate in GATES:
+        b, a = before[gate].to_numpy(dtype=float), after[gate].to_numpy(dtype=float)
+        rows[gate] = np.where((b < 0.5) & (a >= 0.5), "gained", np.where((b >= 0.5) & (a < 0.5), "lost", ""))
+    return rows[moved].reset_index(drop=True)
+
+
+def compare_runs(before: pd.DataFrame, after: pd.DataFrame, names: tuple[str, str] = ("before", "after")
+                 ) -> Comparison:
+    """Two runs' cases (`read_cases`) compared per split (in the order of `before`), and over them all (`POOLED`)
+    where they hold more than one: the cases are drawn independently, so their gains and losses add up; DataError
+    (naming the run by `names`) unless they are the same cases."""
+    check_same_cases(before, after, names)
+    after = after.loc[before.index]
+    parts = [(str(split), part) for split, part in before.groupby("split", sort=False)]
+    if len(parts) > 1:
+        parts.append((POOLED, before))
+    gates, errors = [], []
+    for split, part in parts:
+        other = after.loc[part.index]
+        gates += [gate_change(split, gate, part, other) for gate in GATES]
+        errors += [error_change(split, column, part, other) for column in ERROR_COLUMNS]
+    return Comparison(tuple(gates), tuple(errors), changed_cases(before, after))
