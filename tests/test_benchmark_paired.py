@@ -77,6 +77,8 @@ def test_the_gates_count_what_each_run_gained_and_lost():
     assert comparison.changed.set_index("seed").at[20, "paper_position_pct_after"] == 1.5
     errors = {e.column: e for e in comparison.errors}
     assert (errors["fit_position_pct"].worse, errors["fit_position_pct"].better, errors["fit_position_pct"].cases) == (2, 0, 39)
+    assert errors["fit_position_pct"].median_change == pytest.approx(1.4 - 0.24, abs=1e-9)  # 0.23 and 0.25 -> 1.4
+    assert np.isnan(errors["fit_heading_deg"].median_change)
     assert (errors["paper_position_pct"].worse, errors["paper_position_pct"].cases) == (1, 20)
 
 

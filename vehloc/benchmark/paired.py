@@ -47,7 +47,8 @@ class GateChange:
 @dataclass(frozen=True)
 class ErrorChange:
     """One error column of one split over the cases with a value in both runs: how many got better (smaller by
-    more than `MOVE_TOLERANCE`) and worse, the median change (after - before) and the sign test's p-value."""
+    more than `MOVE_TOLERANCE`) and worse, the median change (after - before) of those that moved (NaN: none) and
+    the sign test's p-value."""
 
     split: str
     column: str
@@ -139,9 +140,10 @@ def gate_change(split: str, gate: str, before: pd.DataFrame, after: pd.DataFrame
 def error_change(split: str, column: str, before: pd.DataFrame, after: pd.DataFrame) -> ErrorChange:
     """One error column over one split's cases with a value in both runs."""
     change = (after[column] - before[column]).dropna().to_numpy(dtype=float)
-    better, worse = int((change < -MOVE_TOLERANCE).sum()), int((change > MOVE_TOLERANCE).sum())
-    return ErrorChange(split, column, len(change), better, worse, float(np.median(change)) if len(change) else np.nan,
-                       sign_test_p(better, worse))
+    moved = change[np.abs(change) > MOVE_TOLERANCE]
+    return ErrorChange(split, column, len(change), int((moved < 0).sum()), int((moved > 0).sum()),
+                       float(np.median(moved)) if len(moved) else np.nan, sign_test_p(int((moved < 0).sum()),
+                                                                                        int((moved > 0).sum())))
 
 
 def changed_cases(before: pd.DataFrame, after: pd.DataFrame) -> pd.DataFrame:

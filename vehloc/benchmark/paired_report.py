@@ -40,7 +40,7 @@ def gates_table(comparison: Comparison) -> pd.DataFrame:
 
 def errors_table(comparison: Comparison) -> pd.DataFrame:
     return pd.DataFrame([{"split": e.split, "error": e.column, "cases in both": e.cases, "better": e.better,
-                          "worse": e.worse, "median change": e.median_change, "sign test p": e.p_value}
+                          "worse": e.worse, "median change of the moved": e.median_change, "sign test p": e.p_value}
                          for e in comparison.errors])
 
 
@@ -93,7 +93,8 @@ def write_comparison(comparison: Comparison, out_dir: Path, names: tuple[str, st
              "## Gates", "", markdown_table(gates, "{:.3g}"), "",
              "## Errors", "",
              "Over the cases with the estimate in both runs: better or worse by more than 0.01 (per cent of the "
-             "diagonal or deg), the median change (after - before) and the sign test on better against worse.", "",
+             "diagonal or deg), the median change (after - before) of those that moved, and the sign test on better "
+             "against worse.", "",
              markdown_table(errors, "{:.3g}"), "",
              f"## The {len(comparison.changed)} changed cases", "",
              markdown_table(comparison.changed, "{:.3f}") if len(comparison.changed) else "No case changed.", "",
