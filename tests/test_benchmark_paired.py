@@ -147,7 +147,7 @@ def test_the_script_writes_the_comparison(tmp_path: Path):
         frame.to_csv(tmp_path / name / "cases.csv", index=False)
     out = tmp_path / "compare"
     run = subprocess.run([sys.executable, str(SCRIPT), str(tmp_path / "before"), str(tmp_path / "after"),
-                          "--out", str(out)], capture_output=True, text=True, timeout=120)
+                          "--out", str(out)], capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr
     assert {p.name for p in out.iterdir()} == {"gates.csv", "errors.csv", "changed_cases.csv", "compare.md",
                                                "compare.png"}
@@ -165,7 +165,7 @@ def test_the_script_refuses_runs_of_other_seeds_in_one_line_and_writes_nothing(t
         run_frame(seed0).to_csv(tmp_path / name / "cases.csv", index=False)
     out = tmp_path / "compare"
     run = subprocess.run([sys.executable, str(SCRIPT), str(tmp_path / "before"), str(tmp_path / "after"),
-                          "--out", str(out)], capture_output=True, text=True, timeout=120)
+                          "--out", str(out)], capture_output=True, text=True, timeout=300)
     assert run.returncode == 1
     assert run.stderr.strip().splitlines() == [
         f"experiments/localization_benchmark/compare.py: error: {tmp_path / 'before'}: holds 40 seed(s) the other run "

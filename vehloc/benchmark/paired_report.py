@@ -20,8 +20,9 @@ EVIDENCE_P = 0.05
 """A gate's change is called a change where the exact McNemar p-value is below this."""
 SEEDS_SHOWN = 12
 """Gained and lost seeds listed per gate in the Markdown (all are in the CSV)."""
-BARS_PCT = {"fit": 1.0, "paper": 2.85}
-"""Each method's position bar (per cent of the diagonal), drawn on the figure."""
+ERRORS = {"position_pct": "position error (% of the diagonal)", "heading_deg": "heading error (deg)"}
+METHOD_BARS = {"fit": (1.0, 1.0), "paper": (2.85, 2.5)}
+"""Each method's bars on its errors (`ERRORS`' order), drawn on the figure."""
 
 
 def seeds_text(seeds: tuple[int, ...]) -> str:
@@ -45,34 +46,35 @@ def errors_table(comparison: Comparison) -> pd.DataFrame:
 
 
 def paired_figure(changed: pd.DataFrame, path: Path) -> Path:
-    """Per method, each case whose estimate by it moved (`MOVE_TOLERANCE`) or whose gate changed: its position
-    error after against before (log scales), the gained ones green, the lost red, the diagonal and the bar dashed."""
-    fig = Figure(figsize=(10, 4.8))
-    for ax, method in zip(fig.subplots(1, 2), ("fit", "paper")):
-        before = changed[f"{method}_position_pct_before"].to_numpy(dtype=float)
-        after = changed[f"{method}_position_pct_after"].to_numpy(dtype=float)
+    """Per method (columns) and error (rows: position, heading), each case whose estimate by that method moved
+    (`MOVE_TOLERANCE`) or whose gate changed: its error after against before (log scales), the gained ones green,
+    the lost red, the diagonal and the bar dashed."""
+    fig = Figure(figsize=(10, 9))
+    axes = fig.subplots(2, 2)
+    for col, method in enumerate(("fit", "paper")):
+        values = {error: (changed[f"{method}_{error}_before"].to_numpy(dtype=float),
+                          changed[f"{method}_{error}_after"].to_numpy(dtype=float)) for error in ERRORS}
         gate = changed[f"{method}_within"].to_numpy(dtype=str)
-        heading = (changed[f"{method}_heading_deg_after"] - changed[f"{method}_heading_deg_before"]).abs()
-        moved = (np.abs(after - before) > MOVE_TOLERANCE) | (heading.to_numpy(dtype=float) > MOVE_TOLERANCE)
-        both = ~np.isnan(before) & ~np.isnan(after) & (moved | (gate != ""))
-        for mark, colour, label in (("", "0.55", "gate unchanged"), ("gained", "tab:green", "gained the gate"),
-                                    ("lost", "tab:red", "lost the gate")):
-            chosen = both & (gate == mark)
-            ax.scatter(before[chosen].clip(1e-3), after[chosen].clip(1e-3), s=14, c=colour,
-                       label=f"{label} ({int(chosen.sum())})")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        low, high = 1e-3, max(10.0, float(np.nanmax(np.r_[before[both], after[both], 1.0])) * 1.5)
-        ax.plot([low, high], [low, high], color="0.3", linewidth=0.8)
-        ax.axhline(BARS_PCT[method], color=METHOD_STYLES[method][0], linestyle="--", linewidth=0.8)
-        ax.axvline(BARS_PCT[method], color=METHOD_STYLES[method][0], linestyle="--", linewidth=0.8)
-        ax.set_xlim(low, high)
-        ax.set_ylim(low, high)
-        ax.set_xlabel("before: position error (% of the diagonal)")
-        ax.set_ylabel("after")
-        ax.set_title(f"{METHOD_STYLES[method][2]}: {int(both.sum())} cases moved")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8, loc="upper left")
+        moved = np.any([np.abs(after - before) > MOVE_TOLERANCE for before, after in values.values()], axis=0)
+        both = np.all([~np.isnan(before) & ~np.isnan(after) for before, after in values.values()], axis=0)
+        shown = both & (moved | (gate != ""))
+        for row, (error, (before, after)) in enumerate(values.items()):
+            ax = axes[row, col]
+            for mark, colour, label in (("", "0.55", "gate unchanged"), ("gained", "tab:green", "gained the gate"),
+                                        ("lost", "tab:red", "lost the gate")):
+                chosen = shown & (gate == mark)
+                ax.scatter(before[chosen].clip(1e-3), after[chosen].clip(1e-3), s=14, c=colour,
+                           label=f"{label} ({int(chosen.sum())})")
+            low, high = 1e-3, max(10.0, float(np.nanmax(np.r_[before[shown], after[shown], 1.0])) * 1.5)
+            ax.plot([low, high], [low, high], color="0.3", linewidth=0.8)
+            bar = METHOD_BARS[method][row]
+            ax.axhline(bar, color=METHOD_STYLES[method][0], linestyle="--", linewidth=0.8)
+            ax.axvline(bar, color=METHOD_STYLES[method][0], linestyle="--", linewidth=0.8)
+            ax.set(xscale="log", yscale="log", xlim=(low, high), ylim=(low, high), ylabel="after",
+                   xlabel=f"before: {ERRORS[error]}")
+            ax.set_title(f"{METHOD_STYLES[method][2]}: {int(shown.sum())} cases moved", fontsize=10)
+            ax.grid(alpha=0.3)
+            ax.legend(fontsize=8, loc="upper left")
     fig.tight_layout()
     with atomic_path(path) as temporary:
         fig.savefig(temporary, format="png", dpi=90)
