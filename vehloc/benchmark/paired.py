@@ -125,6 +125,12 @@ def check_same_cases(before: pd.DataFrame, after: pd.DataFrame, names: tuple[str
                             f"cases with different settings")
 
 
+def rate_pct(flags: np.ndarray) -> float:
+    """The share (per cent) of the known flags (1 or 0; NaN: not in the gate's cases) that are 1; NaN with none."""
+    known = flags[~np.isnan(flags)]
+    return 100.0 * float(known.mean()) if len(known) else np.nan
+
+
 def gate_change(split: str, gate: str, before: pd.DataFrame, after: pd.DataFrame) -> GateChange:
     """One gate over one split's cases (the same seeds in the same order in both frames)."""
     b, a = before[gate].to_numpy(dtype=float), after[gate].to_numpy(dtype=float)
@@ -132,8 +138,7 @@ def gate_change(split: str, gate: str, before: pd.DataFrame, after: pd.DataFrame
     seeds = before.index.to_numpy()
     gained = tuple(int(s) for s in seeds[both & (b < 0.5) & (a >= 0.5)])
     lost = tuple(int(s) for s in seeds[both & (b >= 0.5) & (a < 0.5)])
-    return GateChange(split, gate, int(both.sum()), 100.0 * float(np.nanmean(b)) if (~np.isnan(b)).any() else np.nan,
-                      100.0 * float(np.nanmean(a)) if (~np.isnan(a)).any() else np.nan, gained, lost,
+    return GateChange(split, gate, int(both.sum()), rate_pct(b), rate_pct(a), gained, lost,
                       sign_test_p(len(gained), len(lost)))
 
 
@@ -141,9 +146,9 @@ def error_change(split: str, column: str, before: pd.DataFrame, after: pd.DataFr
     """One error column over one split's cases with a value in both runs."""
     change = (after[column] - before[column]).dropna().to_numpy(dtype=float)
     moved = change[np.abs(change) > MOVE_TOLERANCE]
-    return ErrorChange(split, column, len(change), int((moved < 0).sum()), int((moved > 0).sum()),
-                       float(np.median(moved)) if len(moved) else np.nan, sign_test_p(int((moved < 0).sum()),
-                                                                                        int((moved > 0).sum())))
+    better, worse = int((moved < 0).sum()), int((moved > 0).sum())
+    return ErrorChange(split, column, len(change), better, worse, float(np.median(moved)) if len(moved) else np.nan,
+                       sign_test_p(better, worse))
 
 
 def changed_cases(before: pd.DataFrame, after: pd.DataFrame) -> pd.DataFrame:
