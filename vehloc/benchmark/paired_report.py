@@ -26,11 +26,13 @@ METHOD_BARS = {"fit": (1.0, 1.0), "paper": (2.85, 2.5)}
 
 
 def seeds_text(seeds: tuple[int, ...]) -> str:
+    """The first `SEEDS_SHOWN` seeds, and how many more."""
     shown = ", ".join(str(s) for s in seeds[:SEEDS_SHOWN])
     return shown + (f" (+{len(seeds) - SEEDS_SHOWN})" if len(seeds) > SEEDS_SHOWN else "")
 
 
 def gates_table(comparison: Comparison) -> pd.DataFrame:
+    """One row per split and gate, with the verdict at `EVIDENCE_P`."""
     return pd.DataFrame([{"split": g.split, "gate": GATES[g.gate], "cases in both": g.cases,
                           "before %": g.before_pct, "after %": g.after_pct, "bar %": BARS[g.gate],
                           "gained": len(g.gained), "lost": len(g.lost), "McNemar p": g.p_value,
@@ -40,6 +42,7 @@ def gates_table(comparison: Comparison) -> pd.DataFrame:
 
 
 def errors_table(comparison: Comparison) -> pd.DataFrame:
+    """One row per split and error column."""
     return pd.DataFrame([{"split": e.split, "error": e.column, "cases in both": e.cases, "better": e.better,
                           "worse": e.worse, "median change of the moved": e.median_change, "sign test p": e.p_value}
                          for e in comparison.errors])
