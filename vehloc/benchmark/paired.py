@@ -131,13 +131,19 @@ def rate_pct(flags: np.ndarray) -> float:
     return 100.0 * float(known.mean()) if len(known) else np.nan
 
 
+def gate_flips(before: pd.DataFrame, after: pd.DataFrame, gate: str) -> tuple[np.ndarray, np.ndarray]:
+    """Per case, whether it gained the gate (failed it before, passed after) and whether it lost it; neither where
+    it is not in the gate's cases in both runs (NaN)."""
+    b, a = before[gate].to_numpy(dtype=float), after[gate].to_numpy(dtype=float)
+    return (b < 0.5) & (a >= 0.5), (b >= 0.5) & (a < 0.5)
+
+
 def gate_change(split: str, gate: str, before: pd.DataFrame, after: pd.DataFrame) -> GateChange:
     """One gate over one split's cases (the same seeds in the same order in both frames)."""
     b, a = before[gate].to_numpy(dtype=float), after[gate].to_numpy(dtype=float)
     both = ~np.isnan(b) & ~np.isnan(a)
     seeds = before.index.to_numpy()
-    gained = tuple(int(s) for s in seeds[both & (b < 0.5) & (a >= 0.5)])
-    lost = tuple(int(s) for s in seeds[both & (b >= 0.5) & (a < 0.5)])
+    gained, lost = (tuple(int(s) for s in seeds[flips]) for flips in gate_flips(before, after, gate))
     return GateChange(split, gate, int(both.sum()), rate_pct(b), rate_pct(a), gained, lost,
                       sign_test_p(len(gained), len(lost)))
 
@@ -168,8 +174,8 @@ def changed_cases(before: pd.DataFrame, after: pd.DataFrame) -> pd.DataFrame:
     for column in SHOWN_COLUMNS:
         rows[f"{column}_before"], rows[f"{column}_after"] = before[column], after[column]
     for gate in GATES:
-        b, a = before[gate].to_numpy(dtype=float), after[gate].to_numpy(dtype=float)
-        rows[gate] = np.where((b < 0.5) & (a >= 0.5), "gained", np.where((b >= 0.5) & (a < 0.5), "lost", ""))
+        gained, lost = gate_flips(before, after, gate)
+        rows[gate] = np.where(gained, "gained", np.where(lost, "lost", ""))
     return rows[moved].reset_index(drop=True)
 
 
