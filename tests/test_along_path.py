@@ -9,7 +9,7 @@ import pytest
 from vehloc.geometry.keypoints import Placement
 from vehloc.geometry.motion import PathHeading
 from vehloc.geometry.outcome import NotPlaced, ReasonCode
-from vehloc.geometry.pipeline.localize import along_path
+from vehloc.geometry.pipeline.key_points import along_path
 from vehloc.geometry.pipeline.settings import PipelineParams
 from vehloc.geometry.placement import VehicleBox
 

@@ -18,6 +18,7 @@ from omegaconf import OmegaConf
 
 from vehloc.benchmark.cases import COLOUR_GROUPS, colour_group, draw_case, in_view
 from vehloc.benchmark.paired import compare_runs, read_cases
+from vehloc.benchmark.replay import read_captures, replay
 from vehloc.benchmark.report import gate_lines, view_of, wilson_interval_pct, with_groups, write_report
 from vehloc.benchmark.runner import STOP_LOOKAHEAD_FRAMES, localize_stopped_car, run_case, true_box
 from vehloc.benchmark.suite import BenchmarkSettings, failed_row, run_benchmark, short_reason
@@ -194,8 +195,11 @@ def test_the_script_refuses_a_bad_setting_in_one_line(tmp_path: Path, script_nam
 @pytest.mark.slow
 def test_the_development_subset_holds_its_rates(tmp_path: Path):
     """The first 24 development seeds end to end with the true model (two workers): rates at least those this
-    subset reached when the benchmark was last tuned, and the report's files written."""
-    settings = BenchmarkSettings.from_config(composed("split=dev", f"cases={GATE_SEEDS}", "workers=2"))
+    subset reached when the benchmark was last tuned, and the report's files written; their key-point stage,
+    captured, replays to the run's paper estimates with the run's settings, and moves only the cases placed by one
+    wheel when one wheel may not place a box."""
+    settings = BenchmarkSettings.from_config(composed("split=dev", f"cases={GATE_SEEDS}", "workers=2",
+                                                      f"capture={tmp_path / 'capture'}"))
     outcomes = list(run_benchmark(settings))
     frame = pd.DataFrame([o.row for o in outcomes])
     assert list(frame["seed"]) == list(range(GATE_SEEDS))
@@ -210,6 +214,17 @@ def test_the_development_subset_holds_its_rates(tmp_path: Path):
     run = read_cases(tmp_path)  # the written run is one the comparison of two runs reads
     gates = {g.gate: g for g in compare_runs(run, run).gates}
     assert gates["fit_within"].after_pct == pytest.approx(100.0 * fit_within / grouped["fit_within"].count())
+    captures = read_captures(tmp_path / "capture")
+    paper = ["key_point", "paper_position_pct", "paper_heading_deg"]
+    replayed = pd.DataFrame(replay(captures, settings.localize))
+    pd.testing.assert_frame_equal(replayed[paper], frame[paper], check_dtype=False)  # to the digit
+    detectors = settings.localize.detectors
+    no_lone_wheel = replace(settings.localize, detectors=replace(detectors, wheels=replace(detectors.wheels,
+                                                                                           one_wheel=False)))
+    moved = pd.DataFrame(replay(captures, no_lone_wheel))
+    changed = ~(moved[paper].fillna(-1).eq(frame[paper].fillna(-1)).all(axis=1))
+    by_one_wheel = frame["key_point"].eq("wheel")
+    assert by_one_wheel.any() and changed.equals(by_one_wheel)
 
 
 def test_a_whole_car_whose_shadow_alone_reaches_the_frame_edge_is_localized(settings: BenchmarkSettings):

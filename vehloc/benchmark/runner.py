@@ -23,6 +23,7 @@ from vehloc.data.boxes import Box
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.pipeline.drawing import METHOD_COLOURS_BGR, draw_cuboid
 from vehloc.geometry.pipeline.evaluation import NOT_TRACKED_TO_STOP, at_stop, is_stop_record
+from vehloc.geometry.pipeline.key_points import KeyPointInputs
 from vehloc.geometry.pipeline.localize import Localizer, Status, VehicleRecord
 from vehloc.geometry.pipeline.settings import LocalizeSettings
 from vehloc.geometry.placement import VehicleBox
@@ -49,10 +50,12 @@ encodes its first two frames otherwise (MJPEG at the encoder's own quality)."""
 
 @dataclass(frozen=True)
 class CaseOutcome:
-    """A case's row of results and, where it falls short of a bar, a picture of its car with the estimates."""
+    """A case's row of results, where it falls short of a bar a picture of its car with the estimates, and where
+    asked the key-point stage's inputs of its stop record."""
 
     row: dict[str, object]
     picture_bgr: np.ndarray | None
+    key_points: KeyPointInputs | None = None
 
 
 def true_box(case: BenchmarkCase) -> VehicleBox:
@@ -164,22 +167,29 @@ def picture(frame_bgr: np.ndarray, case: BenchmarkCase, camera: PinholeCamera, r
 
 def run_case(case: BenchmarkCase, split: str, site: Mapping[str, Any], camera: CameraSpec, draw: DrawParams,
              seen_params: VisibilityParams, settings: LocalizeSettings | None = None,
-             classifier: VehicleClassifier | None = None) -> CaseOutcome:
-    """Render, localize and score one case with the localization's `settings` (None: the defaults); `classifier` None gives the car's true model (the geometry alone)."""
+             classifier: VehicleClassifier | None = None, capture: bool = False) -> CaseOutcome:
+    """Render, localize and score one case with the localization's `settings` (None: the defaults); `classifier` None
+    gives the car's true model (the geometry alone); with `capture`, the outcome holds the key-point stage's inputs
+    of the stop record (`vehloc.benchmark.replay`)."""
     start = time.perf_counter()
     spec = case.scene_spec(site, camera, draw)
     calibration = exact_calibration(camera)
     seen = visibility(model_by_id(case.model_id), case.pose, calibration.camera, case.plates, seen_params)
-    localizer = Localizer(classifier or TrueModelClassifier(case.model_id), calibration, settings)
+    latest: dict[int, KeyPointInputs] = {}
+    localizer = Localizer(classifier or TrueModelClassifier(case.model_id), calibration, settings,
+                          observe_key_points=(lambda inputs: latest.__setitem__(inputs.track_id, inputs)) if capture else None)
     with tempfile.TemporaryDirectory(prefix="vehloc-benchmark-") as folder:
         run = localize_stopped_car(spec, localizer, Path(folder))
+    record = run.record
+    inputs = latest.get(record.track_id) if record is not None else None
+    key_points = inputs if inputs is not None and inputs.frame_index == record.frame else None
     mm_per_px = road_mm_per_px(calibration.road_to_image, true_box(case).centre_mm)
     row = case_row(case, split, seen, run.record) | {
         "camera_x_mm": camera.position_mm[0], "camera_y_mm": camera.position_mm[1], "road_mm_per_px": mm_per_px,
         "frames": run.frames, "seconds": time.perf_counter() - start}
     if not falls_short(row):
-        return CaseOutcome(row, None)
-    return CaseOutcome(row, picture(run.frame_bgr, case, calibration.camera, run.record, run.truth_box_px))
+        return CaseOutcome(row, None, key_points)
+    return CaseOutcome(row, picture(run.frame_bgr, case, calibration.camera, run.record, run.truth_box_px), key_points)
 
 
 def thumbnail(image_bgr: np.ndarray, size_px: tuple[int, int], caption: str) -> np.ndarray:

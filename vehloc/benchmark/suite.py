@@ -4,11 +4,13 @@ side by side in worker processes, each case's row (and picture, where it falls s
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Mapping
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from vehloc.atomic import check_output_dir
 from vehloc.benchmark.cases import BenchmarkCase, DrawParams, cameras_from_config, draw_case
+from vehloc.benchmark.replay import CapturedCase, write_capture
 from vehloc.benchmark.runner import CaseOutcome, run_case, thumbnail
 from vehloc.benchmark.side_by_side import in_order, worker_classifier
 from vehloc.benchmark.visibility import VisibilityParams
@@ -36,6 +38,7 @@ class BenchmarkSettings:
     cameras: dict[str, CameraSpec]
     draw: DrawParams
     visibility: VisibilityParams
+    capture: Path | None = None
 
     @classmethod
     def from_config(cls, values: Mapping[str, Any]) -> BenchmarkSettings:
@@ -67,17 +70,23 @@ class BenchmarkSettings:
             raise ConfigError(str(err)) from None
         localize = LocalizeSettings.from_mapping(values["localize"])
         seeds = {name: tuple(range(first[name], first[name] + cases)) for name in chosen}
+        capture = values.get("capture")
+        capture = None if capture is None else check_output_dir(capture, "capture")
         return cls(seeds, None if model is None else Path(model), workers, dict(values["site"]), localize, cameras,
-                   draw, visibility)
+                   draw, visibility, capture)
 
 
 def _run(settings: BenchmarkSettings, split: str, case: BenchmarkCase) -> CaseOutcome:
-    """One case; a case that fails on its own is a row saying how, not the end of the run."""
+    """One case, its capture written where asked (`vehloc.benchmark.replay`); a case that fails on its own is a row
+    saying how, not the end of the run."""
     try:
         outcome = run_case(case, split, settings.site, settings.cameras[case.camera_name], settings.draw,
-                           settings.visibility, settings.localize, worker_classifier())
+                           settings.visibility, settings.localize, worker_classifier(), settings.capture is not None)
     except Exception as err:  # noqa: BLE001 - one case's failure is that case's result
         return CaseOutcome(failed_row(case, split, settings.cameras[case.camera_name], err), None)
+    if settings.capture is not None:
+        write_capture(settings.capture, CapturedCase(split, case, outcome.row, outcome.key_points))
+        outcome = replace(outcome, key_points=None)
     if outcome.picture_bgr is None:
         return outcome
     row = outcome.row

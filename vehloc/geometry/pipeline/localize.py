@@ -17,25 +17,24 @@ exception that ends the video.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, replace
 from enum import StrEnum
 
 import numpy as np
 
 from vehloc.data.boxes import Box
-from vehloc.data.shapes import VehicleShape
 from vehloc.data.specs import VehicleSpec
 from vehloc.errors import VehlocError
-from vehloc.geometry.keypoints import Placement, paper_placement
 from vehloc.geometry.model_fit import best_start, fit_model
 from vehloc.geometry.motion import PathHeading
-from vehloc.geometry.placement import VehicleBox, axis_difference_deg, between_axles, direction_of, facing
+from vehloc.geometry.placement import VehicleBox, direction_of, facing
 from vehloc.geometry.outcome import NotPlaced, ReasonCode
 from vehloc.geometry.road_shadow import refit_with_restarts
 from vehloc.geometry.roi import Silhouette, VehicleRoiExtractor
 from vehloc.geometry.silhouette_start import silhouette_start_headings_deg
 from vehloc.geometry.camera_calibration import CameraCalibration
+from vehloc.geometry.pipeline.key_points import KeyPointInputs, paper_estimate
 from vehloc.geometry.pipeline.timing import StageClock
 from vehloc.geometry.pipeline.settings import LocalizeSettings
 from vehloc.geometry.pipeline.tracker import StoppedVehicleTracker, VehicleTrack
@@ -146,6 +145,7 @@ class Localizer:
         calibration: CameraCalibration,
         settings: LocalizeSettings | None = None,
         clock: StageClock | None = None,
+        observe_key_points: Callable[[KeyPointInputs], None] | None = None,
     ) -> None:
         if calibration.camera is None:
             raise VehlocError(f"{calibration.source}: no pinhole camera can be recovered from this calibration")
@@ -160,6 +160,7 @@ class Localizer:
         self.fit_params = settings.fit
         self.speed_params = settings.speed
         self.clock = clock or StageClock()
+        self.observe_key_points = observe_key_points
         self.removed: list[VehicleTrack] = []
 
     def process(self, frame_index: int, frame_bgr: np.ndarray) -> list[VehicleRecord]:
@@ -264,10 +265,12 @@ class Localizer:
         shape = self.classifier.metadata.shape_of(spec.model_id)
         with self.clock.stage("key points"):
             silhouette = self.extractor.foreground(roi, box)
-            placement = paper_placement(roi.crop(frame_bgr), silhouette, roi, self.calibration, spec, shape,
-                                        self.detectors, went.visible_end)
-        if not isinstance(placement, NotPlaced) and motion is not None:
-            placement = along_path(placement, motion, self.params.max_key_points_path_gap_deg)
+            inputs = KeyPointInputs(track.track_id, frame_index, roi.crop(frame_bgr), silhouette, roi, self.calibration,
+                                    spec, shape, went.visible_end, came, motion)
+            if self.observe_key_points is not None:
+                self.observe_key_points(inputs)
+            placement = paper_estimate(inputs, self.detectors, self.params.wheels_at_axles,
+                                       self.params.max_key_points_path_gap_deg)
         if isinstance(placement, NotPlaced):
             if unclear is not None:
                 return replace(record, status=Status.NOT_LOCALIZED, reason_code=unclear.code,
@@ -285,7 +288,7 @@ class Localizer:
                                reason=joined(placement.message, poor_fit(fit)), notes="")
             return replace(record, notes=joined(f"fit from the {FIT_STARTS[fit.start]} ({placement.message})",
                                                 record.notes), estimates=(fit,))
-        paper_box = self._paper_box(placement, came, shape)
+        paper_box = placement.box
         estimates = [Estimate("paper", paper_box, placement.kind, self._paper_uncertainty(paper_box, placement.kind,
                                                                                          probabilities, placement.baseline_mm))]
         if self.params.fit:
@@ -296,16 +299,6 @@ class Localizer:
             else:
                 record = replace(record, notes=joined(record.notes, poor_fit(fit)))
         return replace(record, estimates=tuple(estimates))
-
-    def _paper_box(self, placement: Placement, came_deg: float | None, shape: VehicleShape) -> VehicleBox:
-        """The paper's box, facing the way the vehicle came when its travel tells; from the wheels with the front
-        so known, moved to put the model's axles' middle on Q (`pipeline.wheels_at_axles`)."""
-        if came_deg is None:
-            return placement.box
-        box = facing(placement.box, came_deg)
-        if placement.kind in ("wheels", "wheel") and self.params.wheels_at_axles:
-            return between_axles(box, shape.axle_middle_x_mm)
-        return box
 
     def _calibration_part(self, box: VehicleBox, baseline_mm: float) -> tuple[float, float]:
         mm_per_px = road_mm_per_px(self.calibration.road_to_image, box.centre_mm)
@@ -366,16 +359,6 @@ def fit_weights(silhouette: Silhouette, motion: PathHeading | None) -> np.ndarra
     vehicle covers for a vehicle without a path heading (measured on still cars; on the real highway clip's moving
     vehicles they moved 13 of 17 fronts further short of the hand-read ones, a median 0.08 m, one beyond 1.5 m)."""
     return silhouette.weights_at_edges() if motion is None else silhouette.weights
-
-
-def along_path(placement: Placement, motion: PathHeading, max_gap_deg: float) -> Placement | NotPlaced:
-    """The paper's placement of a moving vehicle, or why it is not taken: its length axis more than `max_gap_deg`
-    off the track's own path (its key points were not the vehicle's)."""
-    gap_deg = abs(axis_difference_deg(placement.box.heading_deg, motion.heading_deg))
-    if gap_deg <= max_gap_deg:
-        return placement
-    return NotPlaced(ReasonCode.KEY_POINTS_OFF_PATH,
-                     f"the {placement.kind} branch's box lies {gap_deg:.0f} deg off the track's path")
 
 
 def joined(*reasons: str) -> str:

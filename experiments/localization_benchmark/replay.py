@@ -1,0 +1,51 @@
+"""The paper's key points made again on a benchmark run's captured inputs, with other detector settings: no scene is
+rendered, tracked or fitted, so 200 cases take seconds, not minutes (`vehloc.benchmark.replay`).
+
+    python experiments/localization_benchmark/run.py split=dev capture=runs/dev_capture out=runs/dev_base
+    python experiments/localization_benchmark/replay.py capture=runs/dev_capture out=runs/replay_base
+    python experiments/localization_benchmark/replay.py capture=runs/dev_capture out=runs/replay_overlap \
+        localize.wheels.min_ellipse_overlap=0.7
+    python experiments/localization_benchmark/compare.py runs/replay_base runs/replay_overlap --out runs/compare
+
+Settings: `conf/localization_benchmark.yaml` (`capture`, `out` and every `localize.` stage setting; the detectors'
+and the pipeline's turning of a placement into the paper's box are the ones replayed). Writes into `out` what a run
+writes (`cases.csv`, `groups.csv`, `report.md`, `errors.png`), the paper's columns made again and every other
+column, the model fit's among them, the captured run's.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import hydra
+import pandas as pd
+from omegaconf import DictConfig, OmegaConf
+
+from vehloc.atomic import check_output_dir
+from vehloc.benchmark.replay import read_captures, replay
+from vehloc.benchmark.report import write_report
+from vehloc.config import ConfigError, config_dir
+from vehloc.errors import exit_on_error
+from vehloc.geometry.pipeline.settings import LocalizeSettings
+
+
+@hydra.main(version_base="1.3", config_path=str(config_dir()), config_name="localization_benchmark")
+@exit_on_error("experiments/localization_benchmark/replay.py")
+def main(cfg: DictConfig) -> None:
+    values = OmegaConf.to_container(cfg, resolve=True)
+    if values.get("capture") is None:
+        raise ConfigError("capture: the folder of a benchmark run made with capture=DIR is needed")
+    settings = LocalizeSettings.from_mapping(values["localize"])
+    start = time.perf_counter()
+    captures = read_captures(values["capture"])
+    out_dir = check_output_dir(values["out"])
+    frame = pd.DataFrame(replay(captures, settings))
+    title = f"Localization benchmark replayed: the paper's key points on {len(frame)} captured cases ({values['capture']})"
+    written = write_report(frame, Path(out_dir), title, [])
+    print((Path(out_dir) / "report.md").read_text().split("## By")[0])
+    print(f"{len(frame)} cases in {time.perf_counter() - start:.1f} s; wrote " + ", ".join(str(p) for p in written))
+
+
+if __name__ == "__main__":
+    main()

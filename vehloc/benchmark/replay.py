@@ -1,0 +1,102 @@
+"""The paper's key points run again on a benchmark run's captured inputs (`capture=` of the benchmark): each case's
+stop record's key-point stage (`KeyPointInputs`: its ROI, silhouette, calibration, predicted model and travel) is
+written beside its row, and `replay` makes the paper's estimate from it again with other detector settings and
+scores it as the run did. No scene is rendered and nothing is tracked or fitted: a sweep of plate, wheel or
+footprint settings over 200 cases takes seconds, and its `cases.csv` compares case by case with another replay
+(`vehloc.benchmark.paired`). The model fit is not replayed (it starts from the paper's box): its columns stay the
+captured run's.
+
+A capture is a pickle, read back only by the same version of vehloc that wrote it: a cache of one run, not an
+exchange format, and like any pickle only to be opened where it was made."""
+
+from __future__ import annotations
+
+import pickle
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vehloc.atomic import write_bytes
+from vehloc.benchmark.cases import BenchmarkCase
+from vehloc.benchmark.runner import errors, true_box
+from vehloc.errors import DataError
+from vehloc.geometry.outcome import NotPlaced
+from vehloc.geometry.pipeline.key_points import KeyPointInputs, paper_estimate
+from vehloc.geometry.pipeline.settings import LocalizeSettings
+
+CAPTURE_FORMAT = 1
+"""Bumped whenever what a capture holds changes: an older capture is refused, not misread."""
+PAPER_COLUMNS = ("key_point", "paper_position_pct", "paper_heading_deg", "paper_position_mm", "paper_within")
+"""The row's columns a replay makes again; every other column is the captured run's."""
+
+
+@dataclass(frozen=True, eq=False)
+class CapturedCase:
+    """One benchmark case as its run left it: its split, the drawn case, its row (`run_case`) and the key-point
+    stage's inputs of its stop record (None where the case has no stop record or was not localized before it)."""
+
+    split: str
+    case: BenchmarkCase
+    row: dict[str, Any]
+    inputs: KeyPointInputs | None
+
+
+def capture_path(folder: Path, split: str, seed: int) -> Path:
+    """Where a case's capture is written in a capture folder."""
+    return Path(folder) / f"{split}_{seed}.pkl"
+
+
+def write_capture(folder: Path, captured: CapturedCase) -> Path:
+    """Write one case's capture into `folder` (atomically: a run stopped halfway leaves whole files only)."""
+    path = capture_path(folder, captured.split, captured.case.seed)
+    return write_bytes(path, pickle.dumps((CAPTURE_FORMAT, captured), protocol=pickle.HIGHEST_PROTOCOL))
+
+
+def read_capture(path: Path) -> CapturedCase:
+    """One capture file; DataError naming it when it cannot be read as one written by this version."""
+    try:
+        with open(path, "rb") as file:
+            loaded = pickle.load(file)
+    except (OSError, pickle.UnpicklingError, EOFError, AttributeError, ImportError, TypeError) as err:
+        raise DataError(f"{path}: not a benchmark capture ({type(err).__name__}: {err})") from None
+    if not (isinstance(loaded, tuple) and len(loaded) == 2 and loaded[0] == CAPTURE_FORMAT
+            and isinstance(loaded[1], CapturedCase)):
+        raise DataError(f"{path}: not a capture of this version of vehloc (format {CAPTURE_FORMAT}); "
+                        f"capture the run again (capture=DIR)")
+    return loaded[1]
+
+
+def read_captures(folder: str | Path) -> list[CapturedCase]:
+    """Every capture in `folder`, in split and seed order; DataError naming the folder when it holds none."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise DataError(f"{folder}: no such folder (a benchmark run's capture=DIR)")
+    paths = sorted(folder.glob("*_*.pkl"))
+    if not paths:
+        raise DataError(f"{folder}: holds no capture (<split>_<seed>.pkl files of a run with capture=DIR)")
+    captured = [read_capture(path) for path in paths]
+    return sorted(captured, key=lambda c: (c.split, c.case.seed))
+
+
+def replayed_row(captured: CapturedCase, settings: LocalizeSettings) -> dict[str, Any]:
+    """The case's row with the paper's estimate made again from its inputs with `settings` (its detectors and the
+    pipeline's turning of the placement into the paper's box) and scored against the truth."""
+    row = {key: value for key, value in captured.row.items() if key not in PAPER_COLUMNS}
+    row["key_point"] = ""
+    if captured.inputs is None:
+        return row
+    pipeline = settings.pipeline
+    placement = paper_estimate(captured.inputs, settings.detectors, pipeline.wheels_at_axles,
+                               pipeline.max_key_points_path_gap_deg)
+    if isinstance(placement, NotPlaced):
+        return row | {"paper_position_pct": np.nan, "paper_heading_deg": np.nan, "paper_position_mm": np.nan,
+                      "paper_within": False}
+    return row | {"key_point": placement.kind} | errors("paper", placement.box, true_box(captured.case))
+
+
+def replay(captures: Iterable[CapturedCase], settings: LocalizeSettings) -> list[dict[str, Any]]:
+    """Every captured case's replayed row (`replayed_row`), in the order given."""
+    return [replayed_row(captured, settings) for captured in captures]
