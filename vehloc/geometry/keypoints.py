@@ -296,7 +296,7 @@ def _wheel_placement(
     lines = _footprint_lines(roi_bgr, silhouette.mask, offset, calibration, params)
     if isinstance(lines, NotPlaced):
         return lines
-    wheels = detect_wheels(roi_bgr, silhouette.mask, offset, road_to_image, foot, params.wheels)
+    wheels = detect_wheels(roi_bgr, silhouette.mask, offset, road_to_image, foot, params.wheels, spec.wheelbase_mm)
     if wheels is not None and len(wheels.wheels) == 1 and params.wheels.one_wheel and spec.wheelbase_mm:
         return one_wheel_placement(wheels.wheels[0].outer_contact_px, lines.length_heading_deg, silhouette.mask, offset,
                                    calibration, spec, params.wheels.one_wheel_margin_fraction)

@@ -19,7 +19,7 @@ dark as the tyre are tried too: no gap between their spokes has the rim's shape,
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -57,6 +57,11 @@ class WheelParams:
     wheelbase_range_mm: tuple[float, float]
     pair_tolerance_deg: float
     min_score: float
+    model_wheelbase_tolerance: float
+    partner_wheelbase_tolerance: float
+    partner_min_ellipse_overlap: float
+    partner_min_dark_tyre: float
+    partner_min_score: float
 
     def __post_init__(self) -> None:
         check_range("band_fraction", self.band_fraction, 0.0, 1.0, low_open=True)
@@ -80,6 +85,11 @@ class WheelParams:
         check_interval("wheelbase_range_mm", self.wheelbase_range_mm, 0.0, low_open=True)
         check_range("pair_tolerance_deg", self.pair_tolerance_deg, 0.0, 90.0)
         check_range("min_score", self.min_score, 0.0, 1.0)
+        check_range("model_wheelbase_tolerance", self.model_wheelbase_tolerance, 0.0, 1.0)
+        check_range("partner_wheelbase_tolerance", self.partner_wheelbase_tolerance, 0.0, 1.0)
+        check_range("partner_min_ellipse_overlap", self.partner_min_ellipse_overlap, 0.0, 1.0)
+        check_range("partner_min_dark_tyre", self.partner_min_dark_tyre, 0.0, 1.0)
+        check_range("partner_min_score", self.partner_min_score, 0.0, 1.0)
         check_range("one_wheel_margin_fraction", self.one_wheel_margin_fraction, 0.0)
 
     @classmethod
@@ -428,12 +438,40 @@ def detect_wheels(
     road_to_image: ProjectiveTransform,
     camera_foot_mm: np.ndarray,
     params: WheelParams,
+    wheelbase_mm: float | None = None,
 ) -> Wheels | None:
     """The near-side wheels of the vehicle in an ROI, or None when no wheel scores `min_score`.
 
     `roi_bgr`: the ROI crop (uint8 BGR); `mask`: its foreground (bool); `offset_px`: the ROI's top-left in the
     frame (x, y); `road_to_image`: road mm -> frame px; `camera_foot_mm`: the road point below the camera
-    (`PinholeCamera.centre_mm[:2]`), whose image is the vertical vanishing point."""
+    (`PinholeCamera.centre_mm[:2]`), whose image is the vertical vanishing point; `wheelbase_mm`: the predicted
+    model's, where known. Where fewer than two wheels are found so, a pair held to looser tests (`partner_*`) whose
+    outer contacts lie that wheelbase apart (within `partner_wheelbase_tolerance` of it; 0: off) is taken instead."""
+    if wheelbase_mm is not None and params.model_wheelbase_tolerance > 0:
+        params = replace(params, wheelbase_range_mm=around(wheelbase_mm, params.model_wheelbase_tolerance))
+    wheels = _detect_wheels(roi_bgr, mask, offset_px, road_to_image, camera_foot_mm, params)
+    if wheelbase_mm is None or params.partner_wheelbase_tolerance <= 0 or (wheels is not None and len(wheels.wheels) >= 2):
+        return wheels
+    partners = _detect_wheels(roi_bgr, mask, offset_px, road_to_image, camera_foot_mm, replace(
+        params, min_ellipse_overlap=params.partner_min_ellipse_overlap, min_dark_tyre=params.partner_min_dark_tyre,
+        min_score=params.partner_min_score,
+        wheelbase_range_mm=around(wheelbase_mm, params.partner_wheelbase_tolerance)))
+    return partners if partners is not None and len(partners.wheels) == 2 else wheels
+
+
+def around(value: float, tolerance: float) -> tuple[float, float]:
+    """The range within `tolerance` (a share) of `value`."""
+    return (1.0 - tolerance) * value, (1.0 + tolerance) * value
+
+
+def _detect_wheels(
+    roi_bgr: np.ndarray,
+    mask: np.ndarray,
+    offset_px: np.ndarray,
+    road_to_image: ProjectiveTransform,
+    camera_foot_mm: np.ndarray,
+    params: WheelParams,
+) -> Wheels | None:
     mask = np.asarray(mask, dtype=bool)
     if not mask.any():
         return None
