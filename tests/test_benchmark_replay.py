@@ -15,7 +15,9 @@ import pytest
 from test_benchmark import PROJECT_ROOT, composed
 
 from vehloc.benchmark.cases import draw_case
-from vehloc.benchmark.replay import CAPTURE_FORMAT, CapturedCase, capture_path, read_captures, replayed_row, write_capture
+from vehloc.benchmark.replay import (
+    CAPTURE_FORMAT, CapturedCase, capture_path, read_captures, replayed_row, write_capture,
+)
 from vehloc.benchmark.suite import BenchmarkSettings
 from vehloc.errors import DataError
 from vehloc.geometry.pipeline.settings import LocalizeSettings

@@ -41,7 +41,7 @@ def main(cfg: DictConfig) -> None:
     captures = read_captures(values["capture"])
     out_dir = check_output_dir(values["out"])
     frame = pd.DataFrame(replay(captures, settings))
-    title = f"Localization benchmark replayed: the paper's key points on {len(frame)} captured cases ({values['capture']})"
+    title = f"Localization benchmark replayed: the paper's key points of {len(frame)} cases of {values['capture']}"
     written = write_report(frame, Path(out_dir), title, [])
     print((Path(out_dir) / "report.md").read_text().split("## By")[0])
     print(f"{len(frame)} cases in {time.perf_counter() - start:.1f} s; wrote " + ", ".join(str(p) for p in written))

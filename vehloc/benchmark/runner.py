@@ -175,9 +175,13 @@ def run_case(case: BenchmarkCase, split: str, site: Mapping[str, Any], camera: C
     spec = case.scene_spec(site, camera, draw)
     calibration = exact_calibration(camera)
     seen = visibility(model_by_id(case.model_id), case.pose, calibration.camera, case.plates, seen_params)
-    latest: dict[int, KeyPointInputs] = {}
+    latest: dict[int, KeyPointInputs] = {}  # each track's last key-point inputs
+
+    def keep(inputs: KeyPointInputs) -> None:
+        latest[inputs.track_id] = inputs
+
     localizer = Localizer(classifier or TrueModelClassifier(case.model_id), calibration, settings,
-                          observe_key_points=(lambda inputs: latest.__setitem__(inputs.track_id, inputs)) if capture else None)
+                          observe_key_points=keep if capture else None)
     with tempfile.TemporaryDirectory(prefix="vehloc-benchmark-") as folder:
         run = localize_stopped_car(spec, localizer, Path(folder))
     record = run.record

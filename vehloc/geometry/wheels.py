@@ -450,7 +450,8 @@ def detect_wheels(
     if wheelbase_mm is not None and params.model_wheelbase_tolerance > 0:
         params = replace(params, wheelbase_range_mm=around(wheelbase_mm, params.model_wheelbase_tolerance))
     wheels = _detect_wheels(roi_bgr, mask, offset_px, road_to_image, camera_foot_mm, params)
-    if wheelbase_mm is None or params.partner_wheelbase_tolerance <= 0 or (wheels is not None and len(wheels.wheels) >= 2):
+    paired = wheels is not None and len(wheels.wheels) >= 2
+    if wheelbase_mm is None or params.partner_wheelbase_tolerance <= 0 or paired:
         return wheels
     partners = _detect_wheels(roi_bgr, mask, offset_px, road_to_image, camera_foot_mm, replace(
         params, min_ellipse_overlap=params.partner_min_ellipse_overlap, min_dark_tyre=params.partner_min_dark_tyre,
@@ -464,14 +465,9 @@ def around(value: float, tolerance: float) -> tuple[float, float]:
     return (1.0 - tolerance) * value, (1.0 + tolerance) * value
 
 
-def _detect_wheels(
-    roi_bgr: np.ndarray,
-    mask: np.ndarray,
-    offset_px: np.ndarray,
-    road_to_image: ProjectiveTransform,
-    camera_foot_mm: np.ndarray,
-    params: WheelParams,
-) -> Wheels | None:
+def _detect_wheels(roi_bgr: np.ndarray, mask: np.ndarray, offset_px: np.ndarray, road_to_image: ProjectiveTransform,
+                   camera_foot_mm: np.ndarray, params: WheelParams) -> Wheels | None:
+    """`detect_wheels` under one set of tests, no model's wheelbase told."""
     mask = np.asarray(mask, dtype=bool)
     if not mask.any():
         return None
