@@ -37,9 +37,9 @@ def main(cfg: DictConfig) -> None:
     if values.get("capture") is None:
         raise ConfigError("capture: the folder of a benchmark run made with capture=DIR is needed")
     settings = LocalizeSettings.from_mapping(values["localize"])
+    out_dir = check_output_dir(values["out"])
     start = time.perf_counter()
     captures = read_captures(values["capture"])
-    out_dir = check_output_dir(values["out"])
     frame = pd.DataFrame(replay(captures, settings))
     title = f"Localization benchmark replayed: the paper's key points of {len(frame)} cases of {values['capture']}"
     written = write_report(frame, Path(out_dir), title, [])

@@ -131,11 +131,10 @@ def rate_pct(flags: np.ndarray) -> float:
     return 100.0 * float(known.mean()) if len(known) else np.nan
 
 
-def gate_flips(before: pd.DataFrame, after: pd.DataFrame, gate: str) -> tuple[np.ndarray, np.ndarray]:
-    """Per case, whether it gained the gate (failed it before, passed after) and whether it lost it; neither where
-    it is not in the gate's cases in both runs (NaN)."""
-    b, a = before[gate].to_numpy(dtype=float), after[gate].to_numpy(dtype=float)
-    return (b < 0.5) & (a >= 0.5), (b >= 0.5) & (a < 0.5)
+def gate_flips(before: np.ndarray, after: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per case, from a gate's flags in both runs (1 or 0; NaN: not in its cases), whether it gained the gate (failed
+    it before, passed after) and whether it lost it; neither where it is not in the gate's cases in both runs."""
+    return (before < 0.5) & (after >= 0.5), (before >= 0.5) & (after < 0.5)
 
 
 def gate_change(split: str, gate: str, before: pd.DataFrame, after: pd.DataFrame) -> GateChange:
@@ -143,7 +142,7 @@ def gate_change(split: str, gate: str, before: pd.DataFrame, after: pd.DataFrame
     b, a = before[gate].to_numpy(dtype=float), after[gate].to_numpy(dtype=float)
     both = ~np.isnan(b) & ~np.isnan(a)
     seeds = before.index.to_numpy()
-    gained, lost = (tuple(int(s) for s in seeds[flips]) for flips in gate_flips(before, after, gate))
+    gained, lost = (tuple(int(s) for s in seeds[flips]) for flips in gate_flips(b, a))
     return GateChange(split, gate, int(both.sum()), rate_pct(b), rate_pct(a), gained, lost,
                       sign_test_p(len(gained), len(lost)))
 
@@ -174,7 +173,7 @@ def changed_cases(before: pd.DataFrame, after: pd.DataFrame) -> pd.DataFrame:
     for column in SHOWN_COLUMNS:
         rows[f"{column}_before"], rows[f"{column}_after"] = before[column], after[column]
     for gate in GATES:
-        gained, lost = gate_flips(before, after, gate)
+        gained, lost = gate_flips(before[gate].to_numpy(dtype=float), after[gate].to_numpy(dtype=float))
         rows[gate] = np.where(gained, "gained", np.where(lost, "lost", ""))
     return rows[moved].reset_index(drop=True)
 

@@ -17,8 +17,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from vehloc.atomic import write_bytes
 from vehloc.benchmark.cases import BenchmarkCase
 from vehloc.benchmark.runner import errors, true_box
@@ -83,17 +81,16 @@ def read_captures(folder: str | Path) -> list[CapturedCase]:
 
 def replayed_row(captured: CapturedCase, settings: LocalizeSettings) -> dict[str, Any]:
     """The case's row with the paper's estimate made again from its inputs with `settings` (its detectors and the
-    pipeline's turning of the placement into the paper's box) and scored against the truth."""
-    row = {key: value for key, value in captured.row.items() if key not in PAPER_COLUMNS}
-    row["key_point"] = ""
+    pipeline's turning of the placement into the paper's box) and scored against the truth; without one, no paper
+    columns but an empty key point (as a run's row)."""
+    row = {key: value for key, value in captured.row.items() if key not in PAPER_COLUMNS} | {"key_point": ""}
     if captured.inputs is None:
         return row
     pipeline = settings.pipeline
     placement = paper_estimate(captured.inputs, settings.detectors, pipeline.wheels_at_axles,
                                pipeline.max_key_points_path_gap_deg)
     if isinstance(placement, NotPlaced):
-        return row | {"paper_position_pct": np.nan, "paper_heading_deg": np.nan, "paper_position_mm": np.nan,
-                      "paper_within": False}
+        return row
     return row | {"key_point": placement.kind} | errors("paper", placement.box, true_box(captured.case))
 
 
