@@ -197,7 +197,8 @@ def test_the_development_subset_holds_its_rates(tmp_path: Path):
     """The first 24 development seeds end to end with the true model (two workers): rates at least those this
     subset reached when the benchmark was last tuned, and the report's files written; their key-point stage,
     captured, replays to the run's paper estimates with the run's settings, and moves only the cases placed by one
-    wheel when one wheel may not place a box."""
+    wheel when one wheel may not place a box; refitted, to the run's whole records, and without the fit from the
+    silhouette exactly the cases fitted from it are not localized."""
     settings = BenchmarkSettings.from_config(composed("split=dev", f"cases={GATE_SEEDS}", "workers=2",
                                                       f"capture={tmp_path / 'capture'}"))
     outcomes = list(run_benchmark(settings))
@@ -225,6 +226,18 @@ def test_the_development_subset_holds_its_rates(tmp_path: Path):
     changed = ~(moved[paper].fillna(-1).eq(frame[paper].fillna(-1)).all(axis=1))
     by_one_wheel = frame["key_point"].eq("wheel")
     assert by_one_wheel.any() and changed.equals(by_one_wheel)
+    record = ["status", "reason_code", "notes", "key_point", "paper_position_pct", "fit_position_pct", "fit_heading_deg",
+              "fit_iou", "fit_start", "fit_sigma_position_mm", "fit_sigma_heading_deg"]
+    refitted = pd.DataFrame(replay(captures, settings.localize, refit=True, workers=2))
+    pd.testing.assert_frame_equal(refitted[record], frame[record], check_dtype=False)  # the whole record, to the digit
+    pipeline = settings.localize.pipeline
+    unfitted = pd.DataFrame(replay(captures, replace(settings.localize, pipeline=replace(pipeline,
+                                                                                         fit_from_silhouette=False)),
+                                   refit=True, workers=2))
+    lost = frame["localized"].astype(bool) & ~unfitted["localized"].astype(bool)
+    from_silhouette = frame["fit_start"].eq("silhouette")
+    assert from_silhouette.any() and lost.equals(from_silhouette)
+    pd.testing.assert_frame_equal(unfitted.loc[~lost, record], frame.loc[~lost, record], check_dtype=False)
 
 
 def test_a_whole_car_whose_shadow_alone_reaches_the_frame_edge_is_localized(settings: BenchmarkSettings):

@@ -1,7 +1,8 @@
-"""Replaying the paper's key points on a benchmark run's captured inputs: a capture folder that is missing, empty,
+"""Replaying the paper's key points (or whole stop records) on a benchmark run's captured inputs: a capture folder that is missing, empty,
 unreadable or of another version is one error naming it; a case without a stop record keeps its row. (That a replay
-with the run's own settings gives every case's paper estimate to the digit, and that a changed setting moves the
-cases it should and no other, is checked on the 24-case subset in `tests/test_benchmark.py`.)"""
+with the run's own settings gives every case's paper estimate, and with `refit` its whole record, to the digit, and
+that a changed setting moves the cases it should and no other, is checked on the 24-case subset in
+`tests/test_benchmark.py`.)"""
 
 from __future__ import annotations
 
@@ -30,7 +31,7 @@ def captured() -> CapturedCase:
     settings = BenchmarkSettings.from_config(composed("split=dev"))
     case = draw_case(3, settings.cameras, RoadLayout(**settings.site["layout"]), settings.draw)
     row = {"split": "dev", "seed": 3, "status": "not_localized", "reason_code": "not_tracked_to_stop",
-           "localized": False, "key_point": "", "paper_within": True}
+           "localized": False, "key_point": ""}
     return CapturedCase("dev", case, row, None)
 
 
@@ -65,10 +66,10 @@ def test_a_written_capture_reads_back_in_seed_order(tmp_path: Path, captured: Ca
     assert [p.name for p in sorted(tmp_path.iterdir())] == ["dev_12.pkl", "dev_3.pkl"]  # no temporary left
 
 
-def test_a_case_without_a_stop_record_keeps_its_row_and_has_no_paper_estimate(captured: CapturedCase):
-    row = replayed_row(captured, LocalizeSettings.compose())
-    assert row["reason_code"] == "not_tracked_to_stop" and row["key_point"] == ""
-    assert "paper_within" not in row  # the captured row's paper columns are the replay's to make, not kept
+@pytest.mark.parametrize("refit", [False, True])
+def test_a_case_without_a_stop_record_keeps_its_row(captured: CapturedCase, refit: bool):
+    row = replayed_row(captured, LocalizeSettings.compose(), refit)
+    assert row == captured.row and row is not captured.row
 
 
 def test_the_script_refuses_a_missing_capture_in_one_line(tmp_path: Path):
@@ -79,4 +80,15 @@ def test_the_script_refuses_a_missing_capture_in_one_line(tmp_path: Path):
     assert run.stderr.strip().splitlines() == [
         f"experiments/localization_benchmark/replay.py: error: {tmp_path / 'none'}: no such folder "
         f"(a benchmark run's capture=DIR)"]
+    assert not (tmp_path / "run" / "cases.csv").exists()
+
+
+@pytest.mark.parametrize(("override", "message"), [("refit=3", "refit: must be true or false, got 3"),
+                                                    ("workers=0", "workers: must be a whole number >= 1, got 0")])
+def test_the_script_refuses_a_bad_setting_before_reading_the_capture(tmp_path: Path, override: str, message: str):
+    script = PROJECT_ROOT / "experiments" / "localization_benchmark" / "replay.py"
+    run = subprocess.run([sys.executable, str(script), f"capture={tmp_path / 'none'}", f"out={tmp_path / 'run'}",
+                          override], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 1
+    assert run.stderr.strip().splitlines() == [f"experiments/localization_benchmark/replay.py: error: {message}"]
     assert not (tmp_path / "run" / "cases.csv").exists()

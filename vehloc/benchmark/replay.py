@@ -1,10 +1,11 @@
-"""The paper's key points run again on a benchmark run's captured inputs (`capture=` of the benchmark): each case's
-stop record's key-point stage (`KeyPointInputs`: its ROI, silhouette, calibration, predicted model and travel) is
-written beside its row, and `replay` makes the paper's estimate from it again with other detector settings and
-scores it as the run did. No scene is rendered and nothing is tracked or fitted: a sweep of plate, wheel or
-footprint settings over 200 cases takes seconds, and its `cases.csv` compares case by case with another replay
-(`vehloc.benchmark.paired`). The model fit is not replayed (it starts from the paper's box): its columns stay the
-captured run's.
+"""A benchmark run's stop records made again from their captured inputs (`capture=` of the benchmark): each case's
+stop record's inputs after the classification (`RecordInputs`: its ROI, silhouette, calibration, predicted model and
+vote, travel and key-point inputs) are written beside its row. `replay` makes the paper's estimate from them again
+with other detector settings and scores it as the run did: nothing is rendered, tracked or fitted, so a sweep of
+plate, wheel or footprint settings over 200 cases takes seconds, the model fit's columns staying the captured run's.
+With `refit`, the whole record is made again (`record_of`: the paper's box, the model fit and its starts, the
+status), so fit and pipeline settings replay too, in the fits' time alone. Its `cases.csv` compares case by case
+with another replay (`vehloc.benchmark.paired`).
 
 A capture is a pickle, read back only by the same version of vehloc that wrote it: a cache of one run, not an
 exchange format, and like any pickle only to be opened where it was made."""
@@ -19,27 +20,33 @@ from typing import Any
 
 from vehloc.atomic import write_bytes
 from vehloc.benchmark.cases import BenchmarkCase
-from vehloc.benchmark.runner import errors, true_box
+from vehloc.benchmark.runner import errors, record_columns, true_box
+from vehloc.benchmark.side_by_side import in_order
 from vehloc.errors import DataError
 from vehloc.geometry.outcome import NotPlaced
-from vehloc.geometry.pipeline.key_points import KeyPointInputs, paper_estimate
+from vehloc.geometry.pipeline.key_points import paper_estimate
+from vehloc.geometry.pipeline.localize import RecordInputs, record_of
 from vehloc.geometry.pipeline.settings import LocalizeSettings
 
-CAPTURE_FORMAT = 1
+CAPTURE_FORMAT = 2
 """Bumped whenever what a capture holds changes: an older capture is refused, not misread."""
 PAPER_COLUMNS = ("key_point", "paper_position_pct", "paper_heading_deg", "paper_position_mm", "paper_within")
-"""The row's columns a replay makes again; every other column is the captured run's."""
+"""The row's columns a replay of the key points makes again; every other column is the captured run's."""
+RECORD_COLUMNS = ("status", "reason_code", "reason", "notes", "localized", "frame", "predicted_model", "correct",
+                  *PAPER_COLUMNS, "fit_position_pct", "fit_heading_deg", "fit_position_mm", "fit_within", "fit_iou",
+                  "fit_start", "fit_sigma_position_mm", "fit_sigma_heading_deg")
+"""The row's columns a replay of the whole record (`refit`) makes again."""
 
 
 @dataclass(frozen=True, eq=False)
 class CapturedCase:
-    """One benchmark case as its run left it: its split, the drawn case, its row (`run_case`) and the key-point
-    stage's inputs of its stop record (None where the case has no stop record or was not localized before it)."""
+    """One benchmark case as its run left it: its split, the drawn case, its row (`run_case`) and what its stop record
+    was made from after the classification (None where the case has no stop record or it was not classified)."""
 
     split: str
     case: BenchmarkCase
     row: dict[str, Any]
-    inputs: KeyPointInputs | None
+    inputs: RecordInputs | None
 
 
 def capture_path(folder: Path, split: str, seed: int) -> Path:
@@ -79,21 +86,31 @@ def read_captures(folder: str | Path) -> list[CapturedCase]:
     return sorted(captured, key=lambda c: (c.split, c.case.seed))
 
 
-def replayed_row(captured: CapturedCase, settings: LocalizeSettings) -> dict[str, Any]:
+def replayed_row(captured: CapturedCase, settings: LocalizeSettings, refit: bool = False) -> dict[str, Any]:
     """The case's row with the paper's estimate made again from its inputs with `settings` (its detectors and the
     pipeline's turning of the placement into the paper's box) and scored against the truth; without one, no paper
-    columns but an empty key point (as a run's row)."""
-    row = {key: value for key, value in captured.row.items() if key not in PAPER_COLUMNS} | {"key_point": ""}
+    columns but an empty key point (as a run's row). With `refit`, the whole stop record made again (`record_of`) and
+    its columns (`RECORD_COLUMNS`) scored as a run scores them."""
     if captured.inputs is None:
-        return row
+        return dict(captured.row)
     pipeline = settings.pipeline
-    placement = paper_estimate(captured.inputs, settings.detectors, pipeline.wheels_at_axles,
+    placement = paper_estimate(captured.inputs.key_points, settings.detectors, pipeline.wheels_at_axles,
                                pipeline.max_key_points_path_gap_deg)
+    if refit:
+        return replaced(captured.row, RECORD_COLUMNS,
+                        record_columns(captured.case, record_of(captured.inputs, placement, settings)))
     if isinstance(placement, NotPlaced):
-        return row
-    return row | {"key_point": placement.kind} | errors("paper", placement.box, true_box(captured.case))
+        return replaced(captured.row, PAPER_COLUMNS, {"key_point": ""})
+    return replaced(captured.row, PAPER_COLUMNS,
+                    {"key_point": placement.kind} | errors("paper", placement.box, true_box(captured.case)))
 
 
-def replay(captures: Iterable[CapturedCase], settings: LocalizeSettings) -> list[dict[str, Any]]:
-    """Every captured case's replayed row (`replayed_row`), in the order given."""
-    return [replayed_row(captured, settings) for captured in captures]
+def replaced(row: dict[str, Any], dropped: tuple[str, ...], made: dict[str, Any]) -> dict[str, Any]:
+    """`row` without its `dropped` columns, the `made` ones in their place (new ones after)."""
+    return {key: value for key, value in row.items() if key not in dropped or key in made} | made
+
+
+def replay(captures: Iterable[CapturedCase], settings: LocalizeSettings, refit: bool = False,
+           workers: int = 1) -> list[dict[str, Any]]:
+    """Every captured case's replayed row (`replayed_row`), in the order given, `workers` side by side."""
+    return list(in_order(replayed_row, [(captured, settings, refit) for captured in captures], workers))

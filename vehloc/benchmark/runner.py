@@ -23,8 +23,7 @@ from vehloc.data.boxes import Box
 from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.pipeline.drawing import METHOD_COLOURS_BGR, draw_cuboid
 from vehloc.geometry.pipeline.evaluation import NOT_TRACKED_TO_STOP, at_stop, is_stop_record
-from vehloc.geometry.pipeline.key_points import KeyPointInputs
-from vehloc.geometry.pipeline.localize import Localizer, Status, VehicleRecord
+from vehloc.geometry.pipeline.localize import Localizer, RecordInputs, Status, VehicleRecord
 from vehloc.geometry.pipeline.settings import LocalizeSettings
 from vehloc.geometry.placement import VehicleBox
 from vehloc.geometry.camera_calibration import CameraCalibration
@@ -51,11 +50,11 @@ encodes its first two frames otherwise (MJPEG at the encoder's own quality)."""
 @dataclass(frozen=True)
 class CaseOutcome:
     """A case's row of results, where it falls short of a bar a picture of its car with the estimates, and where
-    asked the key-point stage's inputs of its stop record."""
+    asked what its stop record was made from after the classification (`RecordInputs`)."""
 
     row: dict[str, object]
     picture_bgr: np.ndarray | None
-    key_points: KeyPointInputs | None = None
+    inputs: RecordInputs | None = None
 
 
 def true_box(case: BenchmarkCase) -> VehicleBox:
@@ -129,10 +128,16 @@ def case_row(case: BenchmarkCase, split: str, seen: Visibility, record: VehicleR
     if record is None:
         return row | {"status": Status.NOT_LOCALIZED, "reason_code": NOT_TRACKED_TO_STOP.code,
                       "reason": NOT_TRACKED_TO_STOP.message, "localized": False, "key_point": "", "correct": False}
-    row |= {"status": record.status, "reason_code": record.reason_code or "", "reason": record.reason,
-            "notes": record.notes, "localized": record.status == Status.LOCALIZED,
-            "frame": record.frame, "predicted_model": f"{record.make} {record.model}".strip(),
-            "correct": record.model_id == case.model_id}
+    return row | record_columns(case, record)
+
+
+def record_columns(case: BenchmarkCase, record: VehicleRecord) -> dict[str, object]:
+    """The row's columns that the stop record makes: its status and reason, the predicted model and both methods'
+    errors against the truth."""
+    row: dict[str, object] = {
+        "status": record.status, "reason_code": record.reason_code or "", "reason": record.reason,
+        "notes": record.notes, "localized": record.status == Status.LOCALIZED, "frame": record.frame,
+        "predicted_model": f"{record.make} {record.model}".strip(), "correct": record.model_id == case.model_id}
     truth = true_box(case)
     paper, fit = record.estimate("paper"), record.estimate("fit")
     row["key_point"] = paper.key_point if paper is not None else ""
@@ -169,31 +174,31 @@ def run_case(case: BenchmarkCase, split: str, site: Mapping[str, Any], camera: C
              seen_params: VisibilityParams, settings: LocalizeSettings | None = None,
              classifier: VehicleClassifier | None = None, capture: bool = False) -> CaseOutcome:
     """Render, localize and score one case with the localization's `settings` (None: the defaults); `classifier` None
-    gives the car's true model (the geometry alone); with `capture`, the outcome holds the key-point stage's inputs
-    of the stop record (`vehloc.benchmark.replay`)."""
+    gives the car's true model (the geometry alone); with `capture`, the outcome holds what the stop record was
+    made from after the classification (`vehloc.benchmark.replay`)."""
     start = time.perf_counter()
     spec = case.scene_spec(site, camera, draw)
     calibration = exact_calibration(camera)
     seen = visibility(model_by_id(case.model_id), case.pose, calibration.camera, case.plates, seen_params)
-    latest: dict[int, KeyPointInputs] = {}  # each track's last key-point inputs
+    latest: dict[int, RecordInputs] = {}  # each track's last record's inputs
 
-    def keep(inputs: KeyPointInputs) -> None:
-        latest[inputs.track_id] = inputs
+    def keep(inputs: RecordInputs) -> None:
+        latest[inputs.classified.track_id] = inputs
 
     localizer = Localizer(classifier or TrueModelClassifier(case.model_id), calibration, settings,
-                          observe_key_points=keep if capture else None)
+                          observe_inputs=keep if capture else None)
     with tempfile.TemporaryDirectory(prefix="vehloc-benchmark-") as folder:
         run = localize_stopped_car(spec, localizer, Path(folder))
     record = run.record
     inputs = latest.get(record.track_id) if record is not None else None
-    key_points = inputs if inputs is not None and inputs.frame_index == record.frame else None
+    stop_inputs = inputs if inputs is not None and inputs.classified.frame == record.frame else None
     mm_per_px = road_mm_per_px(calibration.road_to_image, true_box(case).centre_mm)
     row = case_row(case, split, seen, run.record) | {
         "camera_x_mm": camera.position_mm[0], "camera_y_mm": camera.position_mm[1], "road_mm_per_px": mm_per_px,
         "frames": run.frames, "seconds": time.perf_counter() - start}
     if not falls_short(row):
-        return CaseOutcome(row, None, key_points)
-    return CaseOutcome(row, picture(run.frame_bgr, case, calibration.camera, run.record, run.truth_box_px), key_points)
+        return CaseOutcome(row, None, stop_inputs)
+    return CaseOutcome(row, picture(run.frame_bgr, case, calibration.camera, run.record, run.truth_box_px), stop_inputs)
 
 
 def thumbnail(image_bgr: np.ndarray, size_px: tuple[int, int], caption: str) -> np.ndarray:

@@ -85,8 +85,8 @@ def _run(settings: BenchmarkSettings, split: str, case: BenchmarkCase) -> CaseOu
     except Exception as err:  # noqa: BLE001 - one case's failure is that case's result
         return CaseOutcome(failed_row(case, split, settings.cameras[case.camera_name], err), None)
     if settings.capture is not None:
-        write_capture(settings.capture, CapturedCase(split, case, outcome.row, outcome.key_points))
-        outcome = replace(outcome, key_points=None)
+        write_capture(settings.capture, CapturedCase(split, case, outcome.row, outcome.inputs))
+        outcome = replace(outcome, inputs=None)
     if outcome.picture_bgr is None:
         return outcome
     row = outcome.row

@@ -1,7 +1,7 @@
 """The key-point stage of one record: what the paper's placement of a tracked vehicle is made from
-(`KeyPointInputs`), and the paper's box made from it (`paper_estimate`), the same function the pipeline calls. An
-observer given to the `Localizer` receives each record's inputs, so the stage can be run again on them with other
-detector settings (`vehloc.benchmark.replay`) without rendering, tracking or fitting anything."""
+(`KeyPointInputs`), and the paper's box made from it (`paper_estimate`), the same function the pipeline calls and a replay
+calls again on a record's captured inputs (`RecordInputs` of `vehloc.geometry.pipeline.localize`,
+`vehloc.benchmark.replay`) with other detector settings, without rendering, tracking or fitting anything."""
 
 from __future__ import annotations
 

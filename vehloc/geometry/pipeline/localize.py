@@ -12,7 +12,8 @@ a moving vehicle's key points whose box lies across its own path are not taken (
 A vehicle cut by the frame's edge, whose fit does not explain its silhouette, or that moves along a path too
 short or too irregular to tell its heading, or which way it goes (and shows no key points), is recorded as not
 localized, with its reason code and sentence: a stage that cannot place a vehicle returns a `NotPlaced`, never an
-exception that ends the video.
+exception that ends the video. After the classification a record is made from its `RecordInputs` alone (`record_of`),
+which an observer of the `Localizer` receives, so a benchmark can make its records again with other settings.
 """
 
 from __future__ import annotations
@@ -34,9 +35,10 @@ from vehloc.geometry.road_shadow import refit_with_restarts
 from vehloc.geometry.roi import Silhouette, VehicleRoiExtractor
 from vehloc.geometry.silhouette_start import silhouette_start_headings_deg
 from vehloc.geometry.camera_calibration import CameraCalibration
+from vehloc.geometry.keypoints import Placement
 from vehloc.geometry.pipeline.key_points import KeyPointInputs, paper_estimate
 from vehloc.geometry.pipeline.timing import StageClock
-from vehloc.geometry.pipeline.settings import LocalizeSettings
+from vehloc.geometry.pipeline.settings import LocalizeSettings, PipelineParams
 from vehloc.geometry.pipeline.tracker import StoppedVehicleTracker, VehicleTrack
 from vehloc.geometry.pipeline.travel import Travel, track_travel
 from vehloc.geometry.uncertainty import (
@@ -48,6 +50,7 @@ from vehloc.geometry.uncertainty import (
     road_mm_per_px,
 )
 from vehloc.infer.classifier import VehicleClassifier
+from vehloc.infer.metadata import ModelMetadata
 from vehloc.infer.preprocess import MIN_SIDE_PX
 
 
@@ -145,22 +148,20 @@ class Localizer:
         calibration: CameraCalibration,
         settings: LocalizeSettings | None = None,
         clock: StageClock | None = None,
-        observe_key_points: Callable[[KeyPointInputs], None] | None = None,
+        observe_inputs: Callable[[RecordInputs], None] | None = None,
     ) -> None:
         if calibration.camera is None:
             raise VehlocError(f"{calibration.source}: no pinhole camera can be recovered from this calibration")
         self.classifier = classifier
         self.calibration = calibration
-        settings = settings or LocalizeSettings.compose()
+        self.settings = settings = settings or LocalizeSettings.compose()
         self.params = settings.pipeline
         self.extractor = VehicleRoiExtractor(settings.roi)
         self.tracker = StoppedVehicleTracker(self.params.vote_frames, settings.tracker, self.params.vote_policy,
                                              1.0 / settings.roi.scale)
-        self.detectors = settings.detectors
-        self.fit_params = settings.fit
         self.speed_params = settings.speed
         self.clock = clock or StageClock()
-        self.observe_key_points = observe_key_points
+        self.observe_inputs = observe_inputs
         self.removed: list[VehicleTrack] = []
 
     def process(self, frame_index: int, frame_bgr: np.ndarray) -> list[VehicleRecord]:
@@ -194,40 +195,6 @@ class Localizer:
         moving = self.params.heading_from_motion and not self.tracker.is_still(track)
         return track_travel(track, frame_index, moving, self.params, self.calibration.road_to_image,
                       self.calibration.camera.centre_mm[:2])
-
-    def fit_starts(self, track: VehicleTrack, mask: np.ndarray, roi: Box, came_deg: float | None,
-                   motion: PathHeading | None) -> tuple[str, list[float]]:
-        """Where the model fit starts when no key points are found (`FIT_STARTS`) and the headings it starts from:
-        a moving vehicle from its path's heading and a stopped one from its travel's (`fit_from_travel`, when it
-        travelled far enough to tell), else a stopped one from its silhouette's principal road direction and its
-        perpendicular (`fit_from_silhouette`); no heading without the fit, or when the road point under the box's
-        bottom is unknown."""
-        nearest_mm = track.ground_points_mm
-        if not (self.params.fit and nearest_mm and np.all(np.isfinite(nearest_mm[-1]))):
-            return "", []
-        if self.params.fit_from_travel and came_deg is not None:
-            return "travel", [came_deg if motion is None else motion.heading_deg]
-        if not (self.params.fit_from_silhouette and motion is None):
-            return "", []
-        offset = np.array([roi.x0, roi.y0], dtype=float)
-        return "silhouette", list(silhouette_start_headings_deg(mask, offset, self.calibration.road_to_image))
-
-    def _start_box(self, track: VehicleTrack, spec: VehicleSpec, heading_deg: float, start: str, weights: np.ndarray,
-                   roi: Box) -> VehicleBox:
-        """The box a fit without key points starts from: its footprint's nearest point the road point under the box's
-        bottom (`travel_start_box`); from the silhouette, the best overlap of the boxes moved from there along the
-        line of sight by `pipeline.silhouette_search_mm` (a shadow or a lost bumper moves the box's bottom)."""
-        foot = self.calibration.camera.centre_mm[:2]
-        nearest_mm = track.ground_points_mm[-1]
-        box = travel_start_box(nearest_mm, foot, spec.length_mm, spec.width_mm, heading_deg)
-        if start != "silhouette":
-            return box
-        sight = (nearest_mm - foot) / np.linalg.norm(nearest_mm - foot)
-        low_mm, high_mm, step_mm = self.params.silhouette_search_mm
-        candidates = [replace(box, centre_mm=box.centre_mm + offset * sight)
-                      for offset in np.arange(low_mm, high_mm + step_mm / 2, step_mm)]
-        return best_start(self.calibration.camera, weights, roi, self.classifier.metadata.shape_of(spec.model_id),
-                          candidates, self.fit_params.supersample_for(roi))
 
     def body_touches_border(self, box: Box, width_px: int, height_px: int) -> bool:
         """Whether the vehicle's own pixels (its silhouette without the shadow under it) reach within the margin of the
@@ -265,93 +232,166 @@ class Localizer:
         shape = self.classifier.metadata.shape_of(spec.model_id)
         with self.clock.stage("key points"):
             silhouette = self.extractor.foreground(roi, box)
-            inputs = KeyPointInputs(track.track_id, frame_index, roi.crop(frame_bgr), silhouette, roi, self.calibration,
-                                    spec, shape, went.visible_end, came, motion)
-            if self.observe_key_points is not None:
-                self.observe_key_points(inputs)
-            placement = paper_estimate(inputs, self.detectors, self.params.wheels_at_axles,
+            key_points = KeyPointInputs(track.track_id, frame_index, roi.crop(frame_bgr), silhouette, roi,
+                                        self.calibration, spec, shape, went.visible_end, came, motion)
+            nearest_mm = track.ground_points_mm[-1] if track.ground_points_mm else None
+            inputs = RecordInputs(record, key_points, probabilities, self.classifier.metadata, nearest_mm, unclear)
+            if self.observe_inputs is not None:
+                self.observe_inputs(inputs)
+            placement = paper_estimate(key_points, self.settings.detectors, self.params.wheels_at_axles,
                                        self.params.max_key_points_path_gap_deg)
-        if isinstance(placement, NotPlaced):
-            if unclear is not None:
-                return replace(record, status=Status.NOT_LOCALIZED, reason_code=unclear.code,
-                               reason=joined(placement.message, unclear.message), notes="")
-            kind, headings = self.fit_starts(track, silhouette.mask, roi, came, motion)
-            if not headings:
-                return replace(record, status=Status.NOT_LOCALIZED, reason_code=placement.code,
-                               reason=placement.message, notes="")
-            with self.clock.stage("model fit"):
-                weights = fit_weights(silhouette, motion)
-                starts = [self._start_box(track, spec, heading, kind, weights, roi) for heading in headings]
-                fit = self._fit(starts, silhouette, roi, probabilities, came, motion, kind)
-            if fit.iou < self.params.min_fit_iou:
-                return replace(record, status=Status.NOT_LOCALIZED, reason_code=ReasonCode.POOR_FIT,
-                               reason=joined(placement.message, poor_fit(fit)), notes="")
-            return replace(record, notes=joined(f"fit from the {FIT_STARTS[fit.start]} ({placement.message})",
-                                                record.notes), estimates=(fit,))
-        paper_box = placement.box
-        estimates = [Estimate("paper", paper_box, placement.kind, self._paper_uncertainty(paper_box, placement.kind,
-                                                                                         probabilities, placement.baseline_mm))]
-        if self.params.fit:
-            with self.clock.stage("model fit"):
-                fit = self._fit([paper_box], silhouette, roi, probabilities, came, motion)
-            if fit.iou >= self.params.min_fit_iou:
-                estimates.append(fit)
-            else:
-                record = replace(record, notes=joined(record.notes, poor_fit(fit)))
-        return replace(record, estimates=tuple(estimates))
+        return record_of(inputs, placement, self.settings, self.clock)
 
-    def _calibration_part(self, box: VehicleBox, baseline_mm: float) -> tuple[float, float]:
-        mm_per_px = road_mm_per_px(self.calibration.road_to_image, box.centre_mm)
-        from_foot_mm = float(np.linalg.norm(box.centre_mm - self.calibration.camera.centre_mm[:2]))
-        return calibration_part(self.calibration.rms_reprojection_px, mm_per_px, baseline_mm,
-                                self.calibration.scale_sigma_fraction * from_foot_mm)
 
-    def _paper_uncertainty(self, box: VehicleBox, kind: str, probabilities: np.ndarray, baseline_mm: float) -> Uncertainty:
-        spread = dimension_spread_mm(probabilities, self.classifier.metadata.dims_mm, self.params.uncertainty_top_k)
-        return Uncertainty.combined(paper_dimension_part(kind, spread), self._calibration_part(box, baseline_mm))
+@dataclass(frozen=True, eq=False)
+class RecordInputs:
+    """What a classified vehicle's record is made from after the classification: the record so far (`classified`: its
+    predicted model, and a note on a heading from its path), the key-point stage's inputs, the vote's probabilities
+    over the classes of `metadata`, the road point under the box's bottom (None where none is known) and why its
+    travel cannot place it (`unclear`). An observer given to the `Localizer` receives them, so the stages after the
+    classification can be run again on them with other settings (`vehloc.benchmark.replay`)."""
 
-    def _fit(self, starts: list[VehicleBox], silhouette: Silhouette, roi: Box, probabilities: np.ndarray,
-             came_deg: float | None, motion: PathHeading | None, start_kind: str = "key points") -> Estimate:
-        """The predicted model's shape fitted to the silhouette's weights from each of `starts` (the paper's
-        placement, or the starts without key points), the best overlap kept, facing the way a stopped vehicle came
-        when its track travelled far enough to tell (else both ways tried, the better overlap kept), its heading held
-        at the path's when the vehicle moves; a vehicle without a path heading then refitted without the road's
-        shadow around it (`fit.shadow_passes`, `refit_with_restarts`), its outline's pixels weighing the share of them
-        it covers (`fit_weights`; where it meets its shadow, read against the shadowed road); its uncertainty from
-        refitting the other probable models' shapes from the kept start to the same weights, and the path heading's
-        own."""
-        camera, metadata = self.calibration.camera, self.classifier.metadata
-        order = np.argsort(-probabilities, kind="stable")[: self.params.uncertainty_top_k]
-        candidates = [i for i in order if i == order[0] or probabilities[i] >= self.params.uncertainty_min_probability]
-        stopped_came_from = came_deg if came_deg is not None and motion is None else None
+    classified: VehicleRecord
+    key_points: KeyPointInputs
+    probabilities: np.ndarray
+    metadata: ModelMetadata
+    nearest_mm: np.ndarray | None
+    unclear: NotPlaced | None
 
-        def begin_at(start: VehicleBox, spec: VehicleSpec, facing_deg: float | None) -> VehicleBox:
-            begin = VehicleBox(start.centre_mm, start.heading_deg if motion is None else motion.heading_deg,
-                               spec.length_mm, spec.width_mm)
-            return begin if facing_deg is None else facing(begin, facing_deg)
 
-        predicted = metadata.classes[candidates[0]]
-        params = self.fit_params if stopped_came_from is None else replace(self.fit_params, try_reversed=False)
-        shape = metadata.shape_of(predicted.model_id)
-        weights = fit_weights(silhouette, motion)
-        tried = [(fit_model(camera, weights, roi, shape, begin_at(start, predicted, stopped_came_from),
-                            params, fit_heading=motion is None), start)
-                 for start in starts]  # a stopped vehicle faces the way it came: only that is fitted
-        first, start = max(tried, key=lambda pair: pair[0].iou)
-        if motion is None:  # a moving vehicle's heading is its path's, and its records many: no shadow refit
-            first, weights = refit_with_restarts(camera, silhouette, roi, shape, first, params)
-        fits = [first] + [  # the other models start facing the way the predicted one was fitted: front and rear are settled
-            fit_model(camera, weights, roi, metadata.shape_of(spec.model_id), begin_at(start, spec, first.box.heading_deg),
-                      replace(self.fit_params, try_reversed=False), fit_heading=motion is None)
-            for spec in (metadata.classes[index] for index in candidates[1:])]
-        box = facing(first.box, came_deg) if came_deg is not None else first.box
-        dimensions = fitted_spread([f.box for f in fits], probabilities[candidates]) if len(fits) > 1 else (0.0, 0.0)
-        if motion is None:
-            uncertainty = Uncertainty.combined(dimensions, self._calibration_part(box, box.length_mm / 2))
-        else:  # the heading is the path's: the calibration turns it over the path's extent, not over the car
-            uncertainty = Uncertainty.combined(dimensions, self._calibration_part(box, motion.extent_mm),
-                                               (0.0, motion.sigma_deg))
-        return Estimate("fit", box, None, uncertainty, first.iou, start_kind)
+def record_of(inputs: RecordInputs, placement: Placement | NotPlaced, settings: LocalizeSettings,
+              clock: StageClock | None = None) -> VehicleRecord:
+    """The record made from the paper's `placement` (`paper_estimate` of `inputs.key_points`): its box, and the model
+    fit started there; without one, the fit from the track's travel or the silhouette (`fit_starts`), or why the
+    vehicle is not localized."""
+    clock = clock or StageClock()
+    record, points, params = inputs.classified, inputs.key_points, settings.pipeline
+    if isinstance(placement, NotPlaced):
+        if inputs.unclear is not None:
+            return replace(record, status=Status.NOT_LOCALIZED, reason_code=inputs.unclear.code,
+                           reason=joined(placement.message, inputs.unclear.message), notes="")
+        kind, headings = fit_starts(inputs, params)
+        if not headings:
+            return replace(record, status=Status.NOT_LOCALIZED, reason_code=placement.code,
+                           reason=placement.message, notes="")
+        with clock.stage("model fit"):
+            weights = fit_weights(points.silhouette, points.motion)
+            starts = [start_box(inputs, heading, kind, weights, settings) for heading in headings]
+            fit = fitted(starts, inputs, settings, kind)
+        if fit.iou < params.min_fit_iou:
+            return replace(record, status=Status.NOT_LOCALIZED, reason_code=ReasonCode.POOR_FIT,
+                           reason=joined(placement.message, poor_fit(fit)), notes="")
+        return replace(record, notes=joined(f"fit from the {FIT_STARTS[fit.start]} ({placement.message})",
+                                            record.notes), estimates=(fit,))
+    paper_box = placement.box
+    estimates = [Estimate("paper", paper_box, placement.kind,
+                          paper_uncertainty(inputs, paper_box, placement.kind, placement.baseline_mm, params))]
+    if params.fit:
+        with clock.stage("model fit"):
+            fit = fitted([paper_box], inputs, settings)
+        if fit.iou >= params.min_fit_iou:
+            estimates.append(fit)
+        else:
+            record = replace(record, notes=joined(record.notes, poor_fit(fit)))
+    return replace(record, estimates=tuple(estimates))
+
+
+def fit_starts(inputs: RecordInputs, params: PipelineParams) -> tuple[str, list[float]]:
+    """Where the model fit starts when no key points are found (`FIT_STARTS`) and the headings it starts from:
+    a moving vehicle from its path's heading and a stopped one from its travel's (`fit_from_travel`, when it
+    travelled far enough to tell), else a stopped one from its silhouette's principal road direction and its
+    perpendicular (`fit_from_silhouette`); no heading without the fit, or when the road point under the box's
+    bottom is unknown."""
+    points = inputs.key_points
+    if not (params.fit and inputs.nearest_mm is not None and np.all(np.isfinite(inputs.nearest_mm))):
+        return "", []
+    if params.fit_from_travel and points.came_deg is not None:
+        return "travel", [points.came_deg if points.motion is None else points.motion.heading_deg]
+    if not (params.fit_from_silhouette and points.motion is None):
+        return "", []
+    offset = np.array([points.roi.x0, points.roi.y0], dtype=float)
+    return "silhouette", list(silhouette_start_headings_deg(points.silhouette.mask, offset,
+                                                            points.calibration.road_to_image))
+
+
+def start_box(inputs: RecordInputs, heading_deg: float, start: str, weights: np.ndarray,
+              settings: LocalizeSettings) -> VehicleBox:
+    """The box a fit without key points starts from: its footprint's nearest point the road point under the box's
+    bottom (`travel_start_box`); from the silhouette, the best overlap of the boxes moved from there along the
+    line of sight by `pipeline.silhouette_search_mm` (a shadow or a lost bumper moves the box's bottom)."""
+    points = inputs.key_points
+    camera, spec, nearest_mm = points.calibration.camera, points.spec, inputs.nearest_mm
+    foot = camera.centre_mm[:2]
+    box = travel_start_box(nearest_mm, foot, spec.length_mm, spec.width_mm, heading_deg)
+    if start != "silhouette":
+        return box
+    sight = (nearest_mm - foot) / np.linalg.norm(nearest_mm - foot)
+    low_mm, high_mm, step_mm = settings.pipeline.silhouette_search_mm
+    candidates = [replace(box, centre_mm=box.centre_mm + offset * sight)
+                  for offset in np.arange(low_mm, high_mm + step_mm / 2, step_mm)]
+    return best_start(camera, weights, points.roi, points.shape, candidates, settings.fit.supersample_for(points.roi))
+
+
+def calibration_part_of(calibration: CameraCalibration, box: VehicleBox, baseline_mm: float) -> tuple[float, float]:
+    """The calibration's share of a box's 1-sigma uncertainty, over a baseline of `baseline_mm` on the road."""
+    mm_per_px = road_mm_per_px(calibration.road_to_image, box.centre_mm)
+    from_foot_mm = float(np.linalg.norm(box.centre_mm - calibration.camera.centre_mm[:2]))
+    return calibration_part(calibration.rms_reprojection_px, mm_per_px, baseline_mm,
+                            calibration.scale_sigma_fraction * from_foot_mm)
+
+
+def paper_uncertainty(inputs: RecordInputs, box: VehicleBox, kind: str, baseline_mm: float,
+                      params: PipelineParams) -> Uncertainty:
+    """The paper's box's 1-sigma uncertainty: the probable models' dimensions' spread and the calibration's."""
+    spread = dimension_spread_mm(inputs.probabilities, inputs.metadata.dims_mm, params.uncertainty_top_k)
+    return Uncertainty.combined(paper_dimension_part(kind, spread),
+                                calibration_part_of(inputs.key_points.calibration, box, baseline_mm))
+
+
+def fitted(starts: list[VehicleBox], inputs: RecordInputs, settings: LocalizeSettings,
+           start_kind: str = "key points") -> Estimate:
+    """The predicted model's shape fitted to the silhouette's weights from each of `starts` (the paper's
+    placement, or the starts without key points), the best overlap kept, facing the way a stopped vehicle came
+    when its track travelled far enough to tell (else both ways tried, the better overlap kept), its heading held
+    at the path's when the vehicle moves; a vehicle without a path heading then refitted without the road's
+    shadow around it (`fit.shadow_passes`, `refit_with_restarts`), its outline's pixels weighing the share of them
+    it covers (`fit_weights`; where it meets its shadow, read against the shadowed road); its uncertainty from
+    refitting the other probable models' shapes from the kept start to the same weights, and the path heading's
+    own."""
+    points, metadata, probabilities, pipeline = inputs.key_points, inputs.metadata, inputs.probabilities, settings.pipeline
+    camera, silhouette, roi, came_deg, motion = (points.calibration.camera, points.silhouette, points.roi,
+                                                 points.came_deg, points.motion)
+    order = np.argsort(-probabilities, kind="stable")[: pipeline.uncertainty_top_k]
+    candidates = [i for i in order if i == order[0] or probabilities[i] >= pipeline.uncertainty_min_probability]
+    stopped_came_from = came_deg if came_deg is not None and motion is None else None
+
+    def begin_at(start: VehicleBox, spec: VehicleSpec, facing_deg: float | None) -> VehicleBox:
+        begin = VehicleBox(start.centre_mm, start.heading_deg if motion is None else motion.heading_deg,
+                           spec.length_mm, spec.width_mm)
+        return begin if facing_deg is None else facing(begin, facing_deg)
+
+    predicted = metadata.classes[candidates[0]]
+    params = settings.fit if stopped_came_from is None else replace(settings.fit, try_reversed=False)
+    shape = metadata.shape_of(predicted.model_id)
+    weights = fit_weights(silhouette, motion)
+    tried = [(fit_model(camera, weights, roi, shape, begin_at(start, predicted, stopped_came_from),
+                        params, fit_heading=motion is None), start)
+             for start in starts]  # a stopped vehicle faces the way it came: only that is fitted
+    first, start = max(tried, key=lambda pair: pair[0].iou)
+    if motion is None:  # a moving vehicle's heading is its path's, and its records many: no shadow refit
+        first, weights = refit_with_restarts(camera, silhouette, roi, shape, first, params)
+    fits = [first] + [  # the other models start facing the way the predicted one was fitted: front and rear are settled
+        fit_model(camera, weights, roi, metadata.shape_of(spec.model_id), begin_at(start, spec, first.box.heading_deg),
+                  replace(settings.fit, try_reversed=False), fit_heading=motion is None)
+        for spec in (metadata.classes[index] for index in candidates[1:])]
+    box = facing(first.box, came_deg) if came_deg is not None else first.box
+    dimensions = fitted_spread([f.box for f in fits], probabilities[candidates]) if len(fits) > 1 else (0.0, 0.0)
+    if motion is None:
+        uncertainty = Uncertainty.combined(dimensions, calibration_part_of(points.calibration, box, box.length_mm / 2))
+    else:  # the heading is the path's: the calibration turns it over the path's extent, not over the car
+        uncertainty = Uncertainty.combined(dimensions, calibration_part_of(points.calibration, box, motion.extent_mm),
+                                           (0.0, motion.sigma_deg))
+    return Estimate("fit", box, None, uncertainty, first.iou, start_kind)
 
 
 def fit_weights(silhouette: Silhouette, motion: PathHeading | None) -> np.ndarray:
