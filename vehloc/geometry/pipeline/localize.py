@@ -351,7 +351,8 @@ def paper_uncertainty(inputs: RecordInputs, box: VehicleBox, kind: str, baseline
 def fitted(starts: list[VehicleBox], inputs: RecordInputs, settings: LocalizeSettings,
            start_kind: str = "key points") -> Estimate:
     """The predicted model's shape fitted to the silhouette's weights from each of `starts` (the paper's
-    placement, or the starts without key points), the best overlap kept, facing the way a stopped vehicle came
+    placement, or the starts without key points), the best overlap kept (with `pipeline.keep_start_after_shadow`,
+    the best after each is refitted without the shadow), facing the way a stopped vehicle came
     when its track travelled far enough to tell (else both ways tried, the better overlap kept), its heading held
     at the path's when the vehicle moves; a vehicle without a path heading then refitted without the road's
     shadow around it (`fit.shadow_passes`, `refit_with_restarts`), its outline's pixels weighing the share of them
@@ -377,9 +378,13 @@ def fitted(starts: list[VehicleBox], inputs: RecordInputs, settings: LocalizeSet
     tried = [(fit_model(camera, weights, roi, shape, begin_at(start, predicted, stopped_came_from),
                         params, fit_heading=motion is None), start)
              for start in starts]  # a stopped vehicle faces the way it came: only that is fitted
-    first, start = max(tried, key=lambda pair: pair[0].iou)
-    if motion is None:  # a moving vehicle's heading is its path's, and its records many: no shadow refit
-        first, weights = refit_with_restarts(camera, silhouette, roi, shape, first, params)
+    if motion is None and pipeline.keep_start_after_shadow:
+        refits = [(refit_with_restarts(camera, silhouette, roi, shape, fit, params), start) for fit, start in tried]
+        (first, weights), start = max(refits, key=lambda pair: pair[0][0].iou)
+    else:
+        first, start = max(tried, key=lambda pair: pair[0].iou)
+        if motion is None:  # a moving vehicle's heading is its path's, and its records many: no shadow refit
+            first, weights = refit_with_restarts(camera, silhouette, roi, shape, first, params)
     fits = [first] + [  # the other models start facing the way the predicted one was fitted: front and rear are settled
         fit_model(camera, weights, roi, metadata.shape_of(spec.model_id), begin_at(start, spec, first.box.heading_deg),
                   replace(settings.fit, try_reversed=False), fit_heading=motion is None)

@@ -34,6 +34,7 @@ class PipelineParams:
     fit_from_travel: bool
     fit_from_silhouette: bool
     silhouette_search_mm: tuple[float, float, float]
+    keep_start_after_shadow: bool
     heading_from_motion: bool
     motion_window_frames: int
     motion_max_gap_frames: int
