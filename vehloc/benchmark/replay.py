@@ -90,7 +90,8 @@ def replayed_row(captured: CapturedCase, settings: LocalizeSettings, refit: bool
     """The case's row with the paper's estimate made again from its inputs with `settings` (its detectors and the
     pipeline's turning of the placement into the paper's box) and scored against the truth; without one, no paper
     columns but an empty key point (as a run's row). With `refit`, the whole stop record made again (`record_of`) and
-    its columns (`RECORD_COLUMNS`) scored as a run scores them."""
+    its columns (`RECORD_COLUMNS`) scored as a run scores them. A case without inputs (no stop record, or none
+    classified) keeps its captured row."""
     if captured.inputs is None:
         return dict(captured.row)
     pipeline = settings.pipeline
