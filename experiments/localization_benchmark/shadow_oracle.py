@@ -98,7 +98,7 @@ def case_errors(case: BenchmarkCase, settings: BenchmarkSettings) -> dict[str, o
         "shadow_out_others_out": np.where(~car & ~in_shadow, 0.0, shadow_out),
     }
     for name, foreground in foregrounds.items():
-        refit = fit_model(camera, foreground, roi, shape, truth, localizer.fit_params)
+        refit = fit_model(camera, foreground, roi, shape, truth, localizer.settings.fit)
         row |= errors(name, refit.box, truth)
     extra = (weights > 0) & ~car
     return row | {"cast_x": float(cast[0]), "cast_y": float(cast[1]), "extra_px": int(extra.sum()),
