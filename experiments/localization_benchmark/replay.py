@@ -29,6 +29,7 @@ from omegaconf import DictConfig, OmegaConf
 from vehloc.atomic import check_output_dir
 from vehloc.benchmark.replay import read_captures, replay
 from vehloc.benchmark.report import write_report
+from vehloc.benchmark.suite import count_setting
 from vehloc.config import ConfigError, config_dir
 from vehloc.errors import exit_on_error
 from vehloc.geometry.pipeline.settings import LocalizeSettings
@@ -44,9 +45,7 @@ def main(cfg: DictConfig) -> None:
     refit = values.get("refit")
     if not isinstance(refit, bool):
         raise ConfigError(f"refit: must be true or false, got {refit!r}")
-    workers = values.get("workers")
-    if not isinstance(workers, int) or isinstance(workers, bool) or workers < 1:
-        raise ConfigError(f"workers: must be a whole number >= 1, got {workers!r}")
+    workers = count_setting(values, "workers")
     out_dir = check_output_dir(values["out"])
     start = time.perf_counter()
     captures = read_captures(values["capture"])

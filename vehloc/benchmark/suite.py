@@ -47,12 +47,7 @@ class BenchmarkSettings:
         split = values.get("split")
         if split not in (*SPLITS, "both"):
             raise ConfigError(f"split: must be dev, heldout or both, got {split!r}")
-        cases = values.get("cases")
-        if not isinstance(cases, int) or cases < 1:
-            raise ConfigError(f"cases: must be a whole number >= 1, got {cases!r}")
-        workers = values.get("workers")
-        if not isinstance(workers, int) or workers < 1:
-            raise ConfigError(f"workers: must be a whole number >= 1, got {workers!r}")
+        cases, workers = count_setting(values, "cases"), count_setting(values, "workers")
         first = values.get("seeds") or {}
         chosen = SPLITS if split == "both" else (split,)
         for name in chosen:
@@ -74,6 +69,14 @@ class BenchmarkSettings:
         capture = None if capture is None else check_output_dir(capture, "capture")
         return cls(seeds, None if model is None else Path(model), workers, dict(values["site"]), localize, cameras,
                    draw, visibility, capture)
+
+
+def count_setting(values: Mapping[str, Any], name: str) -> int:
+    """The setting `name` of `values`, a whole number of at least 1; ConfigError naming it otherwise."""
+    value = values.get(name)
+    if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+        raise ConfigError(f"{name}: must be a whole number >= 1, got {value!r}")
+    return value
 
 
 def _run(settings: BenchmarkSettings, split: str, case: BenchmarkCase) -> CaseOutcome:
