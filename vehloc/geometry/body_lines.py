@@ -4,7 +4,8 @@ Blob and cluster analysis first take the high-frequency content out of the body'
 (paper, Sec. II-E): the masked pixels are clustered by colour (k-means in Lab), small blobs of a
 cluster are absorbed by their surroundings (a majority filter over the cluster labels), and every
 pixel is replaced by its cluster's colour, the background by one colour of its own. Canny then finds
-only the boundaries between clusters and the silhouette, and `cv2.HoughLinesP` their straight parts.
+only the boundaries between clusters and the silhouette, and `cv2.HoughLinesP` their straight parts, each then
+moved onto its edge's sub-pixel position in the frame (`vehloc.geometry.subpixel_lines`).
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import cv2
 import numpy as np
 
 from vehloc.config import check_range
+from vehloc.geometry.subpixel_lines import refined_segments_px
 
 
 @dataclass(frozen=True)
@@ -33,6 +35,7 @@ class BodyLineParams:
     min_length_fraction: float
     min_length_px: float
     max_gap_px: int
+    refine_reach_px: float
 
     def __post_init__(self) -> None:
         for name in ("clusters", "cluster_sample_px", "cluster_iterations", "majority_window_px", "hough_votes"):
@@ -43,6 +46,7 @@ class BodyLineParams:
         check_range("min_length_fraction", self.min_length_fraction, 0.0, 1.0)
         check_range("min_length_px", self.min_length_px, 0.0)
         check_range("max_gap_px", self.max_gap_px, 0)
+        check_range("refine_reach_px", self.refine_reach_px, 0.0)
 
 
 def kmeans_centres(samples: np.ndarray, clusters: int, iterations: int) -> np.ndarray:
@@ -90,7 +94,8 @@ def body_segments_px(
     roi_bgr: np.ndarray, mask: np.ndarray, offset_px: np.ndarray, params: BodyLineParams
 ) -> np.ndarray:
     """Straight edge segments (N, 4) `x1 y1 x2 y2` of the body in frame px: Canny on the colour
-    clusters, then `cv2.HoughLinesP`; only edges on or inside the silhouette count."""
+    clusters, then `cv2.HoughLinesP`, each segment moved onto its edge's sub-pixel position in `roi_bgr` within
+    `params.refine_reach_px` (0: as Hough gives it); only edges on or inside the silhouette count."""
     painted = colour_clusters(roi_bgr, mask, params)
     edges = cv2.Canny(painted, params.canny_low, params.canny_high)
     edges[~cv2.dilate(mask.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)] = 0
@@ -102,4 +107,4 @@ def body_segments_px(
     if segments is None:
         return np.zeros((0, 4))
     offset = np.tile(np.asarray(offset_px, dtype=float), 2)
-    return segments.reshape(-1, 4).astype(float) + offset
+    return refined_segments_px(roi_bgr, segments.reshape(-1, 4).astype(float), params.refine_reach_px) + offset
