@@ -64,7 +64,7 @@ def test_the_fit_recovers_a_known_shadow_from_the_light_ratio():
     """Tolerance: 60 mm of offset (about 1.5 px here), 0.05 of strength; the car's own pixels, as dark as the
     shadow, are left out of the fit."""
     ratio = light_ratio_smoothed(ratio_with(SHADOW, 0.4))
-    fitted = fit_road_shadow(CAMERA, SHAPE, TRUTH, ROI, ratio, grid_px=160, max_evaluations=400)
+    fitted = fit_road_shadow(CAMERA, SHAPE, TRUTH, ROI, ratio, grid_px=160, max_evaluations=400, car_margin_px=2)
     assert np.linalg.norm(np.subtract(fitted.offset_mm, SHADOW.offset_mm)) < 60.0
     assert fitted.strength == pytest.approx(SHADOW.strength, abs=0.05)
     explained = shadow_pixels(ratio, darkening(CAMERA, TRUTH, ROI, fitted), 0.08, 0.05)
@@ -175,8 +175,10 @@ def test_the_undecided_edge_is_the_lost_face_not_the_road():
 
 def test_the_lost_face_weighs_as_undecided_in_the_refit():
     """The silhouette lost the grey face's pixels within 3 px of the outline. From the fit to its weights (137 mm off),
-    the refit with those pixels weighing nothing stays over 100 mm off (measured 135.5 mm); with the undecided ones
-    weighing 0.5 it lands within 40 mm and 0.5 deg (measured 28.4 mm, 0.25 deg). (With the face half the car's height
+    the refit with those pixels weighing nothing stays over 100 mm off (measured 109.4 mm; 135.5 mm while the shadow's
+    fit left out the pixels within 2 px of the car); with the undecided ones weighing 0.5 it lands within 40 mm and
+    0.5 deg (measured 10.8 mm, 0.12 deg; 28.4 mm, 0.25 deg then), 142 pixels outside the silhouette weighing so (over
+    300 then: the shadow fitted up to the car now reads more of them as its mix). (With the face half the car's height
     and lighter, ratio 0.8, one of the eight such variants measured went the other way: 198 -> 312 mm.)"""
     weighed = grey_face_silhouette(3)
     params = FitParams.from_config()
@@ -187,7 +189,7 @@ def test_the_lost_face_weighs_as_undecided_in_the_refit():
     undecided, weights = refit_without_shadow(CAMERA, weighed, ROI, SHAPE, plain, params)
     assert position_error_mm(nothing.box) > 100.0
     assert position_error_mm(undecided.box) < 40.0 and abs(undecided.box.heading_deg - TRUTH.heading_deg) < 0.5
-    assert (weights == params.shadow_edge_undecided_weight)[~weighed.mask].sum() > 300
+    assert (weights == params.shadow_edge_undecided_weight)[~weighed.mask].sum() > 100
 
 
 def test_no_shadow_passes_leave_the_fit_as_it_is():
@@ -206,13 +208,14 @@ def moved_along_sight(box: VehicleBox, distance_mm: float) -> VehicleBox:
 
 
 def test_the_shadow_leaves_a_pose_off_along_the_line_of_sight_unexplained():
-    """At the car, the shadow fitted around it explains all but 1 % of the doubtful pixels outside it (the shadow
-    beside it; measured 43 of 9,803). With the car moved 600 mm away from the camera, its black lower body lies outside
-    the shape and no shadow explains it: over 30 % are left (measured 4,746 of 14,458)."""
+    """At the car, the shadow fitted around it explains all but 5 % of the doubtful pixels outside it (the shadow
+    beside it; measured 257 of 9,803, the car's own outline pixels now in the shadow's fit; 43 while it left out those
+    within 2 px of the car). With the car moved 600 mm away from the camera, its black lower body lies outside the
+    shape and no shadow explains it: over 30 % are left (measured 6,035 of 14,458; 4,746 then)."""
     weighed, params = shadowed_silhouette(), FitParams.from_config()
     ratio = light_ratio_smoothed(weighed.light_ratio)
     outside, unexplained = unexplained_outside(CAMERA, weighed, ROI, SHAPE, TRUTH, ratio, params)
-    assert outside > 5000 and unexplained < 0.01 * outside
+    assert outside > 5000 and unexplained < 0.05 * outside
     outside, unexplained = unexplained_outside(CAMERA, weighed, ROI, SHAPE, moved_along_sight(TRUTH, 600.0), ratio,
                                                params)
     assert unexplained > 0.3 * outside

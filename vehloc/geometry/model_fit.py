@@ -50,6 +50,7 @@ class FitParams:
     shadow_min_darkening: float
     shadow_grid_px: int
     shadow_max_evaluations: int
+    shadow_car_margin_px: int
     shadow_edge_band_px: int
     shadow_edge_min_difference: float
     shadow_edge_undecided_weight: float
@@ -67,6 +68,7 @@ class FitParams:
         check_range("shadow_min_darkening", self.shadow_min_darkening, 0.0, 1.0, low_open=True)
         check_range("shadow_grid_px", self.shadow_grid_px, MIN_SHADOW_GRID_PX, MAX_SHADOW_GRID_PX)
         check_range("shadow_max_evaluations", self.shadow_max_evaluations, 1, MAX_EVALUATIONS)
+        check_range("shadow_car_margin_px", self.shadow_car_margin_px, 0, MAX_SHADOW_EDGE_BAND_PX)
         check_range("shadow_edge_band_px", self.shadow_edge_band_px, 0, MAX_SHADOW_EDGE_BAND_PX)
         check_range("shadow_edge_min_difference", self.shadow_edge_min_difference, 0.0, 1.0)
         check_range("shadow_edge_undecided_weight", self.shadow_edge_undecided_weight, 0.0, 1.0)

@@ -35,8 +35,6 @@ RATIO_LEVELS = 100.0
 HUBER_RATIO = 0.06
 """Ratio residuals beyond this count linearly in the shadow's fit (a dark part of the vehicle outside its fitted
 shape, or another vehicle's pixels, must not pull it)."""
-CAR_MARGIN_PX = 2
-"""The vehicle's projected shape grown by this before its pixels are left out of the shadow's fit."""
 START_OFFSETS_MM = ((0.0, 0.0), (300.0, 0.0), (-300.0, 0.0), (0.0, 300.0), (0.0, -300.0))
 """Where the shadow's fit starts: under the vehicle and shifted each way along the road."""
 RESTART_MAX_SHARE = 0.5
@@ -87,15 +85,16 @@ def darkening(camera: PinholeCamera, box: VehicleBox, roi: Box, shadow: RoadShad
 
 
 def fit_road_shadow(camera: PinholeCamera, shape: VehicleShape, box: VehicleBox, roi: Box, ratio: np.ndarray,
-                    grid_px: int, max_evaluations: int) -> RoadShadow:
+                    grid_px: int, max_evaluations: int, car_margin_px: int) -> RoadShadow:
     """The `RoadShadow` of the vehicle fitted at `box` that best explains the smoothed light `ratio` of the ROI's
-    pixels outside the vehicle's projected shape (a Huber loss on ratio residuals), on a grid whose longer side is at
-    most `grid_px`: Nelder-Mead from each of `START_OFFSETS_MM`, at most `max_evaluations` each."""
+    pixels outside the vehicle's projected shape grown by `car_margin_px` (a Huber loss on ratio residuals), on a grid
+    whose longer side is at most `grid_px`: Nelder-Mead from each of `START_OFFSETS_MM`, at most `max_evaluations`
+    each."""
     from scipy.optimize import minimize  # scipy on first use, as the model fit
     scale = min(1.0, grid_px / max(roi.width_px, roi.height_px))
     size = (max(1, round(roi.width_px * scale)), max(1, round(roi.height_px * scale)))
     car = silhouette(camera, shape, box, roi, 1).view(np.uint8)
-    grown = cv2.dilate(car, np.ones((2 * CAR_MARGIN_PX + 1,) * 2, np.uint8))
+    grown = cv2.dilate(car, np.ones((2 * car_margin_px + 1,) * 2, np.uint8))
     outside = cv2.resize(grown, size, interpolation=cv2.INTER_NEAREST) == 0
     observed = cv2.resize(ratio, size, interpolation=cv2.INTER_AREA)[outside]
     extent_px = max(size)
@@ -180,7 +179,7 @@ def refit_without_shadow(camera: PinholeCamera, silhouette: Silhouette, roi: Box
     refit_params = replace(params, try_reversed=False)
     for _ in range(params.shadow_passes):
         shadow = fit_road_shadow(camera, shape, fit.box, roi, ratio, params.shadow_grid_px,
-                                 params.shadow_max_evaluations)
+                                 params.shadow_max_evaluations, params.shadow_car_margin_px)
         shade = darkening(camera, fit.box, roi, shadow)
         shadowed = shadow_pixels(ratio, shade, params.shadow_ratio_tolerance, params.shadow_min_darkening)
         weights = np.where(silhouette.doubtful & shadowed, 0.0, shared)
@@ -203,7 +202,8 @@ def unexplained_outside(camera: PinholeCamera, silhouette: Silhouette, roi: Box,
                         ratio: np.ndarray, params: FitParams) -> tuple[int, int]:
     """The silhouette's doubtful pixels outside the shape at `box`, and how many of them the road's shadow fitted
     around `box` leaves unexplained (their smoothed light `ratio` more than `params.shadow_ratio_tolerance` from its)."""
-    shadow = fit_road_shadow(camera, shape, box, roi, ratio, params.shadow_grid_px, params.shadow_max_evaluations)
+    shadow = fit_road_shadow(camera, shape, box, roi, ratio, params.shadow_grid_px, params.shadow_max_evaluations,
+                             params.shadow_car_margin_px)
     lit = 1.0 - darkening(camera, box, roi, shadow)
     outside = silhouette.doubtful & (coverage(camera, shape, box, roi, 1) < 0.5)
     return int(outside.sum()), int((outside & (np.abs(ratio - lit) >= params.shadow_ratio_tolerance)).sum())
