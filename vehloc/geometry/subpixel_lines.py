@@ -71,4 +71,5 @@ def refined_segments_px(image_bgr: np.ndarray, segments_px: np.ndarray, reach_px
     """Every segment (N, 4) of `image_bgr`'s px refined (`refined_segment_px`); as they were where `reach_px` is 0."""
     if reach_px <= 0 or len(segments_px) == 0:
         return np.asarray(segments_px, float)
-    return np.array([refined_segment_px(image_bgr, segment, reach_px) for segment in segments_px])
+    image = np.ascontiguousarray(image_bgr, np.float32)  # once for every segment (refined_segment_px keeps it so)
+    return np.array([refined_segment_px(image, segment, reach_px) for segment in segments_px])
