@@ -32,6 +32,8 @@ NEAR_PLANE_MM = 50.0
 
 def clip_to_near_plane(points_cam_mm: np.ndarray, near_mm: float = NEAR_PLANE_MM) -> np.ndarray:
     """Clip a camera-frame polygon (N, 3) to z >= near_mm (Sutherland-Hodgman); may return no points."""
+    if np.all(points_cam_mm[:, 2] >= near_mm):
+        return np.array(points_cam_mm, dtype=float).reshape(-1, 3)
     out = []
     n = len(points_cam_mm)
     for i in range(n):

@@ -69,19 +69,32 @@ def light_ratio_smoothed(light_ratio: np.ndarray) -> np.ndarray:
     return cv2.medianBlur(levels, RATIO_MEDIAN_PX).astype(np.float32) / RATIO_LEVELS
 
 
+class ShadowDrawer:
+    """Draws the darkening of `RoadShadow`s of one footprint over one ROI on a grid `scale` times the ROI's; what
+    does not change from one shadow to the next (the footprint's corners about its centre, the grid) is set once."""
+
+    def __init__(self, camera: PinholeCamera, box: VehicleBox, roi: Box, scale: float = 1.0):
+        self.camera, self.roi, self.scale = camera, roi, scale
+        self.size_px = (max(1, round(roi.height_px * scale)), max(1, round(roi.width_px * scale)))
+        self.centre_mm = np.asarray(box.centre_mm, float)
+        self.about_centre_mm = box.corners_mm() - self.centre_mm
+
+    def __call__(self, shadow: RoadShadow) -> np.ndarray:
+        """The share of the road's light `shadow` takes off over the grid (float32)."""
+        canvas = np.zeros(self.size_px, np.float32)
+        corners = self.centre_mm + self.about_centre_mm * shadow.growth + np.asarray(shadow.offset_mm)
+        polygon_px = self.camera.project_polygon(np.column_stack([corners, np.zeros(len(corners))]))
+        if len(polygon_px) < 3:
+            return canvas
+        points = np.round(((polygon_px - [self.roi.x0, self.roi.y0] + 0.5) * self.scale - 0.5) * 16).astype(np.int32)
+        cv2.fillConvexPoly(canvas, points, 1.0, cv2.LINE_AA, 4)
+        return shadow.strength * cv2.GaussianBlur(canvas, (0, 0), max(shadow.blur_px * self.scale, MIN_BLUR_PX))
+
+
 def darkening(camera: PinholeCamera, box: VehicleBox, roi: Box, shadow: RoadShadow, scale: float = 1.0) -> np.ndarray:
     """The share of the road's light `shadow` of the footprint `box` takes off over `roi` (float32), on a grid
     `scale` times the ROI's."""
-    height_px, width_px = max(1, round(roi.height_px * scale)), max(1, round(roi.width_px * scale))
-    canvas = np.zeros((height_px, width_px), np.float32)
-    centre = np.asarray(box.centre_mm, float)
-    corners = centre + (box.corners_mm() - centre) * shadow.growth + np.asarray(shadow.offset_mm)
-    polygon_px = camera.project_polygon(np.column_stack([corners, np.zeros(len(corners))]))
-    if len(polygon_px) < 3:
-        return canvas
-    points = np.round(((polygon_px - [roi.x0, roi.y0] + 0.5) * scale - 0.5) * 16).astype(np.int32)
-    cv2.fillConvexPoly(canvas, points, 1.0, cv2.LINE_AA, 4)
-    return shadow.strength * cv2.GaussianBlur(canvas, (0, 0), max(shadow.blur_px * scale, MIN_BLUR_PX))
+    return ShadowDrawer(camera, box, roi, scale)(shadow)
 
 
 def fit_road_shadow(camera: PinholeCamera, shape: VehicleShape, box: VehicleBox, roi: Box, ratio: np.ndarray,
@@ -98,9 +111,10 @@ def fit_road_shadow(camera: PinholeCamera, shape: VehicleShape, box: VehicleBox,
     outside = cv2.resize(grown, size, interpolation=cv2.INTER_NEAREST) == 0
     observed = cv2.resize(ratio, size, interpolation=cv2.INTER_AREA)[outside]
     extent_px = max(size)
+    draw = ShadowDrawer(camera, box, roi, scale)
 
     def cost(values: np.ndarray) -> float:
-        residual = observed - (1.0 - darkening(camera, box, roi, RoadShadow.of(values, scale), scale)[outside])
+        residual = observed - (1.0 - draw(RoadShadow.of(values, scale))[outside])
         magnitude = np.abs(residual)
         return float(np.where(magnitude < HUBER_RATIO, 0.5 * residual**2,
                               HUBER_RATIO * (magnitude - 0.5 * HUBER_RATIO)).sum())
