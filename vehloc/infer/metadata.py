@@ -14,16 +14,19 @@ import hashlib
 import json
 import math
 from collections.abc import Sequence
-from pathlib import Path
 from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import onnx
 
 from vehloc.data.preprocess import Preprocessing
 from vehloc.data.shapes import VehicleShape, shapes_from_json, shapes_to_json
 from vehloc.data.specs import VehicleSpec
 from vehloc.errors import VehlocError
+
+if TYPE_CHECKING:  # onnx (and the ml_dtypes it loads, a second or more) only where a model is written
+    import onnx
 
 METADATA_KEY = "vehloc"
 FORMAT_VERSION = 2
