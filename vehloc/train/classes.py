@@ -24,6 +24,13 @@ def read_dataset(root: str | Path) -> CompCarsSet:
     return read_compcars(root)
 
 
+def read_data(root: str | Path, specs_csv: str | Path | None = None) -> tuple[CompCarsSet, SpecsTable]:
+    """The data set at `root` and its specs table (`specs_csv`, by default `specs.csv` in the root), read and
+    checked to cover every class; DataError naming the first problem."""
+    dataset = read_dataset(root)
+    return dataset, read_specs(specs_csv or Path(root) / "specs.csv", dataset)
+
+
 def read_specs(specs_path: str | Path, dataset: CompCarsSet) -> SpecsTable:
     """The specs table, checked to cover every class of `dataset`."""
     specs = read_specs_csv(specs_path)

@@ -30,12 +30,11 @@ def evaluate(cfg: DictConfig) -> tuple[dict[str, float], dict[str, Any]]:
 
         return evaluate_onnx(cfg.onnx_path, data, Path(cfg.paths.output_dir) / "table1"), {"cfg": cfg}
     from vehloc.train.checkpoints import check_classes, chosen_on_test_split, preprocessing_of, read_checkpoint
-    from vehloc.train.classes import class_info, read_dataset, read_specs
+    from vehloc.train.classes import class_info, read_data
 
     checkpoint = read_checkpoint(cfg.ckpt_path)
     preprocessing = preprocessing_of(checkpoint, cfg.ckpt_path)
-    dataset = read_dataset(data.root)
-    specs = read_specs(data.specs_csv or Path(data.root) / "specs.csv", dataset)
+    dataset, specs = read_data(data.root, data.specs_csv)
     classes = class_info(dataset, specs)
     check_classes(checkpoint, classes["class_model_ids"], cfg.ckpt_path, classes["class_makes"],
                   classes["class_models"], f"data.root {data.root}")

@@ -19,6 +19,8 @@ from omegaconf import DictConfig, OmegaConf, open_dict
 
 from vehloc.atomic import write_text
 from vehloc.config import ConfigError, config_dir
+from vehloc.data.compcars import CompCarsSet
+from vehloc.data.specs import SpecsTable
 from vehloc.errors import VehlocError
 from vehloc.hardware import cpu_info
 from vehloc.train.datamodule import CompCarsDataModule
@@ -85,11 +87,15 @@ def instantiate_loggers(cfg: DictConfig | None) -> list[Logger]:
     return _instantiate_group(cfg, "logger")
 
 
-def instantiate_data_and_model(data: DataParams, model_params: ModelParams) -> tuple[CompCarsDataModule,
-                                                                                   LitVehicleClassifier]:
-    """The datamodule (data set and specs validated) and a model built for its classes, from the checked settings
+def instantiate_data_and_model(
+    data: DataParams, model_params: ModelParams, data_read: tuple[CompCarsSet, SpecsTable] | None = None,
+) -> tuple[CompCarsDataModule, LitVehicleClassifier]:
+    """The datamodule (data set and specs validated; `data_read`: those already read from its root by
+    `vehloc.train.classes.read_data`) and a model built for its classes, from the checked settings
     (`check_train_config`); validation and test images go through the model's preprocessing."""
     datamodule = CompCarsDataModule.from_params(data)
+    if data_read is not None:
+        datamodule.use_data(*data_read)
     model = LitVehicleClassifier.from_params(model_params, **datamodule.class_info())
     datamodule.use_preprocessing(model.preprocessing)
     return datamodule, model

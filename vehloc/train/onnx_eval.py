@@ -13,7 +13,7 @@ from vehloc.errors import VehlocError
 from vehloc.hardware import cpu_info
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.infer.labelled import predict_labelled
-from vehloc.train.classes import class_info, class_mismatch, read_dataset, read_specs
+from vehloc.train.classes import class_info, class_mismatch, read_data
 from vehloc.train.params import DataParams
 from vehloc.train.report import write_report
 from vehloc.train.table1 import ClassTable, evaluate_predictions
@@ -26,8 +26,8 @@ def evaluate_onnx(onnx_path: str | Path, data: DataParams, out_dir: Path) -> dic
     to `out_dir`; returns the metrics a checkpoint's test logs: `test/acc`, `test/acc_top5` (in [0, 1]) and
     `test/dim_err_pct`, `test/dim_err_pct_expected` (the mean L/W/H % error of each dimension rule)."""
     classifier = VehicleClassifier.from_onnx(onnx_path, PROVIDERS)
-    dataset = read_dataset(data.root)
-    classes = class_info(dataset, read_specs(data.specs_csv or Path(data.root) / "specs.csv", dataset))
+    dataset, specs = read_data(data.root, data.specs_csv)
+    classes = class_info(dataset, specs)
     mismatch = class_mismatch(  # a model scored on another set numbered alike gives a meaningless Table 1
         "model", [c.model_id for c in classifier.classes], [(c.make, c.model) for c in classifier.classes],
         classes["class_model_ids"], list(zip(classes["class_makes"], classes["class_models"])), f"data.root {data.root}")

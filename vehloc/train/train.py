@@ -1,18 +1,20 @@
 """`vehloc-train`: fine-tune a vehicle-model classifier (Hydra config `conf/train.yaml`), then test it and
 write Table 1 into the run folder. Example: `vehloc-train experiment=demo`.
 
-The settings are checked before Lightning is imported (`vehloc.train.params`), so a bad one is answered at
-once; Ctrl-C ends the run with `vehloc-train: interrupted` and exit code 130, its last complete checkpoint
+The settings, the data set with its specs table and a checkpoint to resume from are checked before Lightning is
+imported (`vehloc.train.params`, `vehloc.train.classes`), so bad input is answered at once; Ctrl-C ends the run with `vehloc-train: interrupted` and exit code 130, its last complete checkpoint
 kept."""
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 from omegaconf import DictConfig
 
 from vehloc.config import config_dir
 from vehloc.errors import exit_on_error, hydra_main
+from vehloc.train.classes import class_info, read_data
 from vehloc.train.params import check_train_config
 
 
@@ -21,10 +23,16 @@ def train(cfg: DictConfig) -> tuple[dict[str, float], dict[str, Any]]:
     the objects of the run. The settings are checked first; a checkpoint to resume from must be of the data's
     classes (model ids and names)."""
     data, model_params = check_train_config(cfg)
+    dataset, specs = read_data(data.root, data.specs_csv)
+    if cfg.get("ckpt_path"):
+        from vehloc.train.checkpoints import check_classes, read_checkpoint
+
+        classes = class_info(dataset, specs)
+        check_classes(read_checkpoint(cfg.ckpt_path), classes["class_model_ids"], cfg.ckpt_path, classes["class_makes"],
+                      classes["class_models"], f"data.root {Path(data.root)}")
     import lightning as L
     from lightning.pytorch.utilities import rank_zero_info
 
-    from vehloc.train.checkpoints import check_classes, read_checkpoint
     from vehloc.train.instantiate import (
         instantiate_callbacks,
         instantiate_data_and_model,
@@ -36,12 +44,7 @@ def train(cfg: DictConfig) -> tuple[dict[str, float], dict[str, Any]]:
 
     if cfg.get("seed") is not None:
         L.seed_everything(cfg.seed, workers=True, verbose=False)
-    checkpoint = read_checkpoint(cfg.ckpt_path) if cfg.get("ckpt_path") else None
-    datamodule, model = instantiate_data_and_model(data, model_params)
-    if checkpoint is not None:
-        hp = model.hparams
-        check_classes(checkpoint, hp.class_model_ids, cfg.ckpt_path, hp.class_makes, hp.class_models,
-                      f"data.root {datamodule.root}")
+    datamodule, model = instantiate_data_and_model(data, model_params, (dataset, specs))
     callbacks = instantiate_callbacks(cfg.get("callbacks"))
     loggers = instantiate_loggers(cfg.get("logger"))
     trainer = instantiate_trainer(cfg, callbacks, loggers)
