@@ -49,6 +49,22 @@ def run_cli(prog: str, *args: str | Path, cwd: Path | None = None, timeout: floa
                           timeout=timeout)
 
 
+HEAVY_MODULES = ("torch", "lightning", "onnx")
+
+
+def run_cli_noting_imports(prog: str, *args: str | Path, cwd: Path | None = None) -> tuple[subprocess.CompletedProcess, str]:
+    """Run a console script as `run_cli` does, and say which of `HEAVY_MODULES` it had imported when it ended
+    (comma-separated, in that order; empty when none)."""
+    code = ("import atexit, runpy, sys\n"
+            f"atexit.register(lambda: print(','.join(m for m in {HEAVY_MODULES!r} if m in sys.modules)))\n"
+            f"sys.argv = [{prog!r}, *{[str(a) for a in args]!r}]\n"
+            f"runpy.run_module({CLI_MODULES[prog]!r}, run_name='__main__', alter_sys=True)\n")
+    result = subprocess.run([sys.executable, "-c", code], cwd=cwd, env=cli_env(), capture_output=True, text=True,
+                            timeout=300)
+    lines = result.stdout.strip().splitlines()
+    return result, lines[-1] if lines else ""
+
+
 @contextmanager
 def side_by_side(runs: Mapping[str, tuple[str, Sequence[str | Path], Path | None]]) -> Iterator[dict[str, Future]]:
     """Start console-script runs (`prog`, its arguments, its working folder) side by side, as many at a time as

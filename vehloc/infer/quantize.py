@@ -20,9 +20,9 @@ import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import onnx
 
 from vehloc.atomic import atomic_path
 from vehloc.config import check_choice, check_range
@@ -32,6 +32,9 @@ from vehloc.hardware import CpuInfo, cpu_info
 from vehloc.infer.classifier import VehicleClassifier
 from vehloc.infer.labelled import LabelledPredictions, predict_labelled
 from vehloc.infer.metadata import ModelMetadata, attach_metadata, file_sha256
+
+if TYPE_CHECKING:  # onnx (and the ml_dtypes it loads, a second or more) only where a model is quantized
+    import onnx
 
 QUANTIZE_MODES = ("none", "int8")
 CALIBRATION_METHODS = ("minmax", "entropy", "percentile")
@@ -160,6 +163,8 @@ def _quantize(fp32_path: Path, scratch: Path, output: Path, inputs: np.ndarray, 
             self.next_index += 1
             return {input_name: inputs[self.next_index - 1:self.next_index]}
 
+    import onnx
+
     prepared = scratch / "prepared.onnx"
     quant_pre_process(str(fp32_path), str(prepared), skip_symbolic_shape=True)
     head = head_nodes(onnx.load(str(prepared)))
@@ -195,6 +200,8 @@ def head_nodes(model: onnx.ModelProto) -> list[str]:
 
 
 def _save_with_metadata(path: Path, metadata: ModelMetadata) -> None:
+    import onnx
+
     model = onnx.load(str(path))
     attach_metadata(model, metadata)
     onnx.save(model, str(path))

@@ -10,8 +10,6 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import torch
-
 from vehloc.data.preprocess import Preprocessing
 from vehloc.errors import VehlocError
 from vehloc.train.classes import class_mismatch
@@ -46,6 +44,8 @@ def read_checkpoint(path: str | Path) -> dict[str, Any]:
     path = Path(path)
     if not path.is_file():
         raise CheckpointError(f"ckpt_path {path}: no such checkpoint file" + (" (it is a folder)" if path.is_dir() else ""))
+    import torch  # after the path's check: a missing file is named before torch loads
+
     try:
         checkpoint = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as exc:  # noqa: BLE001 - any unreadable file is a user error here
