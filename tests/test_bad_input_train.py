@@ -236,6 +236,8 @@ def test_train_answers_bad_data_before_torch_loads(kind: str, message: str, tiny
                                             cwd=tmp_path)
     first = result.stderr.strip().splitlines()[0]  # the specs' error lists the models lacking under it
     assert result.returncode == 1 and first.startswith("vehloc-train: error: ") and message in first, result.stderr[-2000:]
+    assert "Traceback" not in result.stderr and not list(tmp_path.rglob("*.ckpt"))
+    assert kind != "specs_lacking_a_class" or "model 12 (Beta)" in result.stderr
     assert loaded == ""
 
 
