@@ -2,8 +2,8 @@
 write Table 1 into the run folder. Example: `vehloc-train experiment=demo`.
 
 The settings, the data set with its specs table and a checkpoint to resume from are checked before Lightning is
-imported (`vehloc.train.params`, `vehloc.train.classes`), so bad input is answered at once; Ctrl-C ends the run with `vehloc-train: interrupted` and exit code 130, its last complete checkpoint
-kept."""
+imported (`vehloc.train.params`, `vehloc.train.classes`), so bad input is answered at once; Ctrl-C ends the run
+with `vehloc-train: interrupted` and exit code 130, its last complete checkpoint kept."""
 
 from __future__ import annotations
 
