@@ -260,6 +260,15 @@ def test_a_missing_checkpoint_is_named_before_torch_loads(prog: str, tiny_root: 
     assert loaded == ""
 
 
+def test_eval_names_a_missing_data_set_before_torch_loads(tmp_path: Path) -> None:
+    """vehloc-eval checks that its checkpoint is a file, then reads the data set, then loads the checkpoint."""
+    checkpoint = write_handmade_checkpoint(tmp_path / "good.ckpt")
+    result, loaded = run_cli_noting_imports("vehloc-eval", f"ckpt_path={checkpoint}", f"data.root={tmp_path / 'none'}",
+                                            f"hydra.run.dir={tmp_path / 'run'}", cwd=tmp_path)
+    assert_one_error(result, "vehloc-eval", "none: no such folder")
+    assert loaded == ""
+
+
 def test_train_names_a_garbage_pretrained_file(tiny_root: Path, tmp_path: Path) -> None:
     """A garbage `pretrained=` file is named by vehloc (not wrapped in Hydra's instantiate report)."""
     garbage = _checkpoint_files(tmp_path)["random_bytes"]

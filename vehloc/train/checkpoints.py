@@ -38,12 +38,18 @@ def load_failure(exc: BaseException) -> str:
     return f"{type(exc).__name__}"
 
 
-def read_checkpoint(path: str | Path) -> dict[str, Any]:
-    """A Lightning checkpoint of LitVehicleClassifier, loaded with `weights_only=True`; CheckpointError naming
-    the file when it is missing, not loadable or not a vehloc classifier's."""
+def check_checkpoint_file(path: str | Path) -> Path:
+    """`path` as a Path; CheckpointError naming it when it is no file (torch-free: a CLI says so before torch loads)."""
     path = Path(path)
     if not path.is_file():
         raise CheckpointError(f"ckpt_path {path}: no such checkpoint file" + (" (it is a folder)" if path.is_dir() else ""))
+    return path
+
+
+def read_checkpoint(path: str | Path) -> dict[str, Any]:
+    """A Lightning checkpoint of LitVehicleClassifier, loaded with `weights_only=True`; CheckpointError naming
+    the file when it is missing, not loadable or not a vehloc classifier's."""
+    path = check_checkpoint_file(path)
     import torch  # after the path's check: a missing file is named before torch loads
 
     try:

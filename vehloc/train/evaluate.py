@@ -29,12 +29,19 @@ def evaluate(cfg: DictConfig) -> tuple[dict[str, float], dict[str, Any]]:
         from vehloc.train.onnx_eval import evaluate_onnx
 
         return evaluate_onnx(cfg.onnx_path, data, Path(cfg.paths.output_dir) / "table1"), {"cfg": cfg}
-    from vehloc.train.checkpoints import check_classes, chosen_on_test_split, preprocessing_of, read_checkpoint
+    from vehloc.train.checkpoints import (
+        check_checkpoint_file,
+        check_classes,
+        chosen_on_test_split,
+        preprocessing_of,
+        read_checkpoint,
+    )
     from vehloc.train.classes import class_info, read_data
 
+    check_checkpoint_file(cfg.ckpt_path)  # a missing checkpoint first, then the data set, both before torch loads
+    dataset, specs = read_data(data.root, data.specs_csv)
     checkpoint = read_checkpoint(cfg.ckpt_path)
     preprocessing = preprocessing_of(checkpoint, cfg.ckpt_path)
-    dataset, specs = read_data(data.root, data.specs_csv)
     classes = class_info(dataset, specs)
     check_classes(checkpoint, classes["class_model_ids"], cfg.ckpt_path, classes["class_makes"],
                   classes["class_models"], f"data.root {data.root}")
