@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pickle
 import zipfile
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -84,15 +84,13 @@ def chosen_on_test_split(checkpoint: dict[str, Any]) -> bool:
     return data.get("val_fraction", 1.0) == 0.0
 
 
-def check_classes(
-    checkpoint: dict[str, Any], class_model_ids: Sequence[int], path: str | Path,
-    class_makes: Sequence[str] | None = None, class_models: Sequence[str] | None = None, data_name: str = "the data set",
-) -> None:
-    """CheckpointError unless the checkpoint was trained on exactly these classes: the same model ids in the same
-    order and, when given, the same make and model names; the message says how they differ."""
+def check_classes(checkpoint: dict[str, Any], classes: Mapping[str, Sequence], path: str | Path, data_name: str) -> None:
+    """CheckpointError unless the checkpoint was trained on exactly the `classes` of a data set
+    (`vehloc.train.classes.class_info`): the same model ids in the same order and the same make and model names; the
+    message says how they differ."""
     hp = checkpoint["hyper_parameters"]
-    data_names = None if class_makes is None or class_models is None else list(zip(class_makes, class_models))
-    names = [] if data_names is None else list(zip(hp["class_makes"], hp["class_models"]))
-    mismatch = class_mismatch("checkpoint", hp["class_model_ids"], names, class_model_ids, data_names, data_name)
+    mismatch = class_mismatch("checkpoint", hp["class_model_ids"], list(zip(hp["class_makes"], hp["class_models"])),
+                              classes["class_model_ids"], list(zip(classes["class_makes"], classes["class_models"])),
+                              data_name)
     if mismatch:
         raise CheckpointError(f"{path}: {mismatch}")

@@ -43,8 +43,7 @@ def evaluate(cfg: DictConfig) -> tuple[dict[str, float], dict[str, Any]]:
     checkpoint = read_checkpoint(cfg.ckpt_path)
     preprocessing = preprocessing_of(checkpoint, cfg.ckpt_path)
     classes = class_info(dataset, specs)
-    check_classes(checkpoint, classes["class_model_ids"], cfg.ckpt_path, classes["class_makes"],
-                  classes["class_models"], f"data.root {data.root}")
+    check_classes(checkpoint, classes, cfg.ckpt_path, f"data.root {data.root}")
 
     from vehloc.train.datamodule import CompCarsDataModule
     from vehloc.train.instantiate import (

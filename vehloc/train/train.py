@@ -27,9 +27,8 @@ def train(cfg: DictConfig) -> tuple[dict[str, float], dict[str, Any]]:
     if cfg.get("ckpt_path"):
         from vehloc.train.checkpoints import check_classes, read_checkpoint
 
-        classes = class_info(dataset, specs)
-        check_classes(read_checkpoint(cfg.ckpt_path), classes["class_model_ids"], cfg.ckpt_path, classes["class_makes"],
-                      classes["class_models"], f"data.root {Path(data.root)}")
+        check_classes(read_checkpoint(cfg.ckpt_path), class_info(dataset, specs), cfg.ckpt_path,
+                      f"data.root {Path(data.root)}")
     import lightning as L
     from lightning.pytorch.utilities import rank_zero_info
 
