@@ -4,24 +4,14 @@ from __future__ import annotations
 
 import dataclasses
 
-from hydra import compose, initialize_config_dir
-from omegaconf import OmegaConf
-
-from vehloc.config import config_dir
+from vehloc.demo.table2_cases import PLATE_SCENES, SIDE_ON_SCENES  # noqa: F401 (the tests' scene lists)
+from vehloc.demo.table2_cases import scene_spec as composed_scene
 from vehloc.synth.scene import SceneSpec
-
-TABLE2_SCENES = (
-    "table2_middle_0", "table2_middle_30", "table2_middle_minus30",
-    "table2_close_0", "table2_close_30", "table2_close_minus30",
-)
-PLATE_SCENES = tuple(f"table2_plate_{distance}_{angle}" for distance in ("middle", "close") for angle in ("0", "30", "minus30"))
 
 
 def scene_spec(name: str, **overrides: object) -> SceneSpec:
-    with initialize_config_dir(config_dir=str(config_dir()), version_base="1.3"):
-        cfg = compose(config_name="scene", overrides=[f"scene={name}", "out=unused"])
-    spec = SceneSpec.from_dict(OmegaConf.to_container(cfg.scene, resolve=True))
-    return dataclasses.replace(spec, **overrides)
+    """The scene `conf/scene/<name>.yaml` as `vehloc-scene` composes it, `overrides` replacing its settings."""
+    return dataclasses.replace(composed_scene(name), **overrides)
 
 
 def short_scene(name: str, **overrides: object) -> SceneSpec:
@@ -32,6 +22,4 @@ def short_scene(name: str, **overrides: object) -> SceneSpec:
 def traffic_scene(name: str = "traffic_720p", *overrides: str) -> SceneSpec:
     """A traffic scene of `conf/scene/`, its cars drawn from its `traffic` block; `overrides` are Hydra overrides of
     the scene's settings (`scene.traffic.duration_s=20`)."""
-    from vehloc.demo.table2_cases import scene_spec as composed_scene
-
     return composed_scene(name, overrides)

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from scene_configs import PLATE_SCENES, TABLE2_SCENES, scene_spec, short_scene
+from scene_configs import PLATE_SCENES, SIDE_ON_SCENES, scene_spec, short_scene
 
 from vehloc.config import ConfigError
 from vehloc.geometry.projective import ProjectiveTransform
@@ -42,7 +42,7 @@ def _vertices_px(spec: SceneSpec, car_index: int, pose: CarPose) -> np.ndarray:
     return spec.camera.camera().project(pose.car_to_world(build_car_mesh(car.model).vertices_mm))
 
 
-@pytest.mark.parametrize("name", TABLE2_SCENES)
+@pytest.mark.parametrize("name", SIDE_ON_SCENES)
 def test_table2_configs_compose_with_the_paper_poses(name: str) -> None:
     spec = scene_spec(name)
     (car,) = spec.cars

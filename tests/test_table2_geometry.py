@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scene_configs import TABLE2_SCENES, scene_spec
+from scene_configs import SIDE_ON_SCENES, scene_spec
 
 from vehloc.geometry.calibration import calibrate
 from vehloc.geometry.markers import detect_markers
@@ -15,7 +15,7 @@ from vehloc.synth.scene import render_frames
 from vehloc.synth.scene_site import scene_site
 
 
-@pytest.mark.parametrize("name", TABLE2_SCENES)
+@pytest.mark.parametrize("name", SIDE_ON_SCENES)
 def test_calibration_on_table2_scene(name: str) -> None:
     """Tolerances (issue): reprojection RMS <= 1 px over the surveyed corners in view; image points
     mapped back to the road within 1 % of their distance from the camera."""
@@ -40,7 +40,7 @@ def test_calibration_on_table2_scene(name: str) -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", TABLE2_SCENES)
+@pytest.mark.parametrize("name", SIDE_ON_SCENES)
 def test_roi_of_the_stopped_car(name: str) -> None:
     """The stop signal fires within 20 frames of the stop, once, and the ROI box then has IoU >= 0.85
     with the true box of the rendered car (the issue's tolerance)."""
