@@ -260,13 +260,17 @@ def test_a_missing_checkpoint_is_named_before_torch_loads(prog: str, tiny_root: 
     assert loaded == ""
 
 
-def test_eval_names_a_missing_data_set_before_torch_loads(tmp_path: Path) -> None:
-    """vehloc-eval checks that its checkpoint is a file, then reads the data set, then loads the checkpoint."""
+@pytest.mark.parametrize(("prog", "root", "message"), [("vehloc-eval", "data.root", "none: no such folder"),
+                                                      ("vehloc-export", "data_root", "none: 1 problem(s) in CompCars")])
+def test_a_missing_data_set_is_named_before_torch_loads(prog: str, root: str, message: str, tmp_path: Path) -> None:
+    """vehloc-eval and vehloc-export check that their checkpoint is a file, then read the data set, then load the
+    checkpoint."""
     checkpoint = write_handmade_checkpoint(tmp_path / "good.ckpt")
-    result, loaded = run_cli_noting_imports("vehloc-eval", f"ckpt_path={checkpoint}", f"data.root={tmp_path / 'none'}",
+    result, loaded = run_cli_noting_imports(prog, f"ckpt_path={checkpoint}", f"{root}={tmp_path / 'none'}",
                                             f"hydra.run.dir={tmp_path / 'run'}", cwd=tmp_path)
-    assert_one_error(result, "vehloc-eval", "none: no such folder")
-    assert loaded == ""
+    first = result.stderr.splitlines()[0]  # a data set's problems are listed under the line
+    assert result.returncode == 1 and first.startswith(f"{prog}: error: ") and message in first, result.stderr
+    assert "Traceback" not in result.stderr and loaded == ""
 
 
 def test_train_names_a_garbage_pretrained_file(tiny_root: Path, tmp_path: Path) -> None:

@@ -2,7 +2,8 @@
 file, and with `quantize=int8` an INT8 model beside it (`onnx_path=model.onnx quantize=int8`: of an earlier export).
 
 Before any work the settings are checked, and the outputs must be writable (not a folder, in a folder that can
-be written, never one of the inputs); then the checkpoint and the data are read; each file replaces its output
+be written, never one of the inputs); then the checkpoint is checked to be a file, the data read and the
+checkpoint loaded (as `vehloc-eval` does: a missing data set is named before torch loads); each file replaces its output
 only when it has passed every check, so a failed or interrupted export leaves an earlier file as it was."""
 
 from __future__ import annotations
@@ -92,9 +93,9 @@ def _run(cfg: DictConfig) -> None:
     fp32_output, int8_output = output_paths(params)
 
     if params.ckpt_path:
-        from vehloc.train.checkpoints import read_checkpoint
+        from vehloc.train.checkpoints import check_checkpoint_file, read_checkpoint
 
-        read_checkpoint(Path(params.ckpt_path))  # a missing or foreign checkpoint is named before the data is read
+        check_checkpoint_file(params.ckpt_path)  # a missing checkpoint is named first, before torch loads
     else:
         from vehloc.infer.classifier import VehicleClassifier
 
@@ -107,6 +108,8 @@ def _run(cfg: DictConfig) -> None:
         raise VehlocError(f"data_root {params.data_root}: the test split is empty; the parity check needs images")
     if int8_output is not None and not data.train:
         raise VehlocError(f"data_root {params.data_root}: the train split is empty; INT8 calibration needs images")
+    if params.ckpt_path:
+        read_checkpoint(Path(params.ckpt_path))  # a foreign checkpoint is named before torch.onnx and Lightning load
     parity = data.test[:: max(1, len(data.test) // params.parity_images)][: params.parity_images]
     fp32_model = Path(params.onnx_path) if params.onnx_path else _export(params, fp32_output, parity)
     if int8_output is not None:
