@@ -52,11 +52,12 @@ def run_cli(prog: str, *args: str | Path, cwd: Path | None = None, timeout: floa
 HEAVY_MODULES = ("torch", "lightning", "onnx")
 
 
-def run_cli_noting_imports(prog: str, *args: str | Path, cwd: Path | None = None) -> tuple[subprocess.CompletedProcess, str]:
-    """Run a console script as `run_cli` does, and say which of `HEAVY_MODULES` it had imported when it ended
+def run_cli_noting_imports(prog: str, *args: str | Path, cwd: Path | None = None,
+                           modules: Sequence[str] = HEAVY_MODULES) -> tuple[subprocess.CompletedProcess, str]:
+    """Run a console script as `run_cli` does, and say which of `modules` it had imported when it ended
     (comma-separated, in that order; empty when none)."""
     code = ("import atexit, runpy, sys\n"
-            f"atexit.register(lambda: print(','.join(m for m in {HEAVY_MODULES!r} if m in sys.modules)))\n"
+            f"atexit.register(lambda: print(','.join(m for m in {tuple(modules)!r} if m in sys.modules)))\n"
             f"sys.argv = [{prog!r}, *{[str(a) for a in args]!r}]\n"
             f"runpy.run_module({CLI_MODULES[prog]!r}, run_name='__main__', alter_sys=True)\n")
     result = subprocess.run([sys.executable, "-c", code], cwd=cwd, env=cli_env(), capture_output=True, text=True,

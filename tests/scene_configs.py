@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 
-from vehloc.demo.table2_cases import PLATE_SCENES, SIDE_ON_SCENES  # noqa: F401 (the tests' scene lists)
+from vehloc.demo.scenes import PLATE_SCENES, SIDE_ON_SCENES  # noqa: F401 (the tests' scene lists)
 from vehloc.demo.table2_cases import scene_spec as composed_scene
 from vehloc.synth.scene import SceneSpec
 

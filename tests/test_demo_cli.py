@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
-from bad_input import assert_one_error, run_cli
+from bad_input import HEAVY_MODULES, assert_one_error, run_cli, run_cli_noting_imports
 
 pytestmark = pytest.mark.slow  # a demo set, one training epoch, an export and one Table 2 scene
 
@@ -70,10 +70,12 @@ def test_a_failed_step_is_named_and_the_steps_before_it_stay_done(tmp_path: Path
     (["train_experiment=no_such_recipe"], "train_experiment: "),
 ])
 def test_bad_settings_are_refused_before_any_work(overrides: list[str], message: str, tmp_path: Path) -> None:
+    """Refused before the work's modules load: no torch, Lightning, onnx, pandas or matplotlib."""
     out = tmp_path / "run"
-    refused = _demo(out, *overrides)
+    refused, loaded = run_cli_noting_imports("vehloc-demo", f"out={out}", *TINY, *overrides, cwd=out.parent,
+                                             modules=(*HEAVY_MODULES, "pandas", "matplotlib"))
     assert_one_error(refused, "vehloc-demo", message)
-    assert not (out / "compcars").exists()
+    assert not (out / "compcars").exists() and loaded == ""
 
 
 def test_a_train_folder_the_demo_did_not_make_is_never_removed(tmp_path: Path) -> None:

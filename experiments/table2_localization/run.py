@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from vehloc.demo.table2_cases import TABLE2_SCENES, calibrate_case, case_table, localize_case, render_case, scene_spec
+from vehloc.demo.scenes import TABLE2_SCENES
+from vehloc.demo.table2_cases import calibrate_case, case_table, localize_case, render_case, scene_spec
 from vehloc.geometry.pipeline.evaluation import write_table2
 from vehloc.geometry.truth import read_scene_truth
 from vehloc.infer.classifier import VehicleClassifier

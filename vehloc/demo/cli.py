@@ -14,24 +14,22 @@ from collections.abc import Callable
 from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import pandas as pd
 from hydra import compose
 from omegaconf import DictConfig, OmegaConf
-from tqdm import tqdm
 
 from vehloc.atomic import check_output_dir
 from vehloc.config import ConfigError, build_params, check_choice, check_range, config_dir
-from vehloc.demo.report import write_report
+from vehloc.demo.scenes import TABLE2_SCENES
 from vehloc.demo.stamps import finished_at, forget, is_done, mark_done, seconds_taken
-from vehloc.demo.table2_cases import TABLE2_SCENES, case_table, localize_case, render_and_calibrate_case
 from vehloc.errors import VehlocError, exit_on_error, hydra_main
-from vehloc.geometry.pipeline.evaluation import write_table2
-from vehloc.hardware import cpu_info
-from vehloc.infer.classifier import VehicleClassifier
 from vehloc.infer.metadata import file_sha256
 from vehloc.synth.demo_set import VIEWS, make_demo_set
 from vehloc.train.params import check_train_config
+
+if TYPE_CHECKING:
+    from vehloc.infer.classifier import VehicleClassifier
 
 TRAIN = [sys.executable, "-m", "vehloc.train.train"]
 EXPORT = [sys.executable, "-m", "vehloc.infer.export_cli"]
@@ -151,14 +149,27 @@ class Demo:
         """Render and calibrate, in `pool`, the scenes whose step is not done."""
         pending = [n for n in self.params.scenes
                    if self.params.force or not is_done(self.run_dir, f"scene_{n}", {"scene": n})]
+        from vehloc.demo.table2_cases import render_and_calibrate_case
+
         return {n: pool.submit(render_and_calibrate_case, n, self.run_dir / "table2" / n) for n in pending}
 
     def localize(self, name: str, classifier: VehicleClassifier) -> list[Path]:
+        from vehloc.demo.table2_cases import localize_case
+
         folder = self.run_dir / "table2" / name
         localize_case(folder, classifier)
         return [folder / "localize" / "table2.csv"]
 
     def run(self) -> Path:
+        import pandas as pd  # the work's modules after the settings' checks: a refusal answers sooner
+        from tqdm import tqdm
+
+        from vehloc.demo.report import write_report
+        from vehloc.demo.table2_cases import case_table
+        from vehloc.geometry.pipeline.evaluation import write_table2
+        from vehloc.hardware import cpu_info
+        from vehloc.infer.classifier import VehicleClassifier
+
         d = self.params.data
         self.step("data", {"per_model": d.per_model, "seed": d.seed, "views": d.views}, self.data)
         self.step("train", {"experiment": self.params.train_experiment, "overrides": self.params.train_overrides,

@@ -25,15 +25,6 @@ from vehloc.synth.scene import SceneSpec, write_scene
 from vehloc.synth.scene_site import scene_site
 from vehloc.synth.traffic import scene_from_config
 
-POSES = tuple(f"{distance}_{angle}" for distance in ("middle", "close") for angle in ("0", "30", "minus30"))
-"""The paper's six poses: two distances, three angles."""
-SIDE_ON_SCENES = tuple(f"table2_{pose}" for pose in POSES)
-"""The six poses seen side-on (the wheel branch)."""
-PLATE_SCENES = tuple(f"table2_plate_{pose}" for pose in POSES)
-"""The six poses with the plate towards the camera (the plate branch)."""
-TABLE2_SCENES = SIDE_ON_SCENES + PLATE_SCENES
-"""Table 2's twelve scenes: the side-on six, then the plate's six."""
-
 
 def scene_spec(name: str, overrides: Sequence[str] = ()) -> SceneSpec:
     """The scene `conf/scene/<name>.yaml` with Hydra `overrides` (`scene.traffic.seed=3`), composed (inside a running
