@@ -19,11 +19,15 @@ from vehloc.geometry.keypoints import (
     end_bottom_height_mm,
     implausible_plate,
     lowered_line_mm,
-    plate_length_heading_deg,
+    Placement,
+    best_overlap,
+    plate_length_headings_deg,
     plate_width_heading_deg,
     plate_widths_mm,
 )
-from vehloc.geometry.placement import between_axles, direction_of, facing, place_on_side
+from vehloc.data.boxes import Box
+from vehloc.geometry.model_fit import silhouette
+from vehloc.geometry.placement import between_axles, direction_of, facing, place_on_end, place_on_side
 from vehloc.geometry.plate import Plate, PlateParams
 from vehloc.geometry.camera_calibration import CameraCalibration
 
@@ -84,13 +88,15 @@ def test_the_plates_edges_give_the_length_axis(camera: PinholeCamera, heading_de
     assert abs((width_deg - heading_deg - 90.0 + 90.0) % 180.0 - 90.0) < 1e-6
 
 
-def test_a_small_plates_heading_is_kept_only_when_the_body_agrees(camera: PinholeCamera) -> None:
-    """A small plate (its sides its colour's outline): within the agreement its heading wins; beyond it the
-    footprint's stands."""
+def test_a_small_plates_heading_is_kept_alone_only_when_the_body_agrees(camera: PinholeCamera) -> None:
+    """A small plate (its sides its colour's outline): within the agreement its heading alone; beyond it the
+    footprint's, then the plate's, for the silhouette to choose between."""
     plate = dataclasses.replace(_plate_seen(camera, 93.0), small=True)
     road_to_image = camera.road_to_image()
-    assert plate_length_heading_deg(plate, road_to_image, 90.0, 5.0) == pytest.approx(93.0, abs=1e-6)
-    assert plate_length_heading_deg(plate, road_to_image, 80.0, 5.0) == 80.0
+    (alone,) = plate_length_headings_deg(plate, road_to_image, 90.0, 5.0)
+    assert alone == pytest.approx(93.0, abs=1e-6)
+    footprint, own = plate_length_headings_deg(plate, road_to_image, 80.0, 5.0)
+    assert footprint == 80.0 and own == pytest.approx(93.0, abs=1e-6)
 
 
 def test_a_plate_whose_sides_were_found_on_the_edges_sets_the_heading(camera: PinholeCamera) -> None:
@@ -98,7 +104,23 @@ def test_a_plate_whose_sides_were_found_on_the_edges_sets_the_heading(camera: Pi
     plate = _plate_seen(camera, 93.0)
     road_to_image = camera.road_to_image()
     for footprint_deg in (90.0, 80.0, 60.0):
-        assert plate_length_heading_deg(plate, road_to_image, footprint_deg, 5.0) == pytest.approx(93.0, abs=1e-6)
+        (alone,) = plate_length_headings_deg(plate, road_to_image, footprint_deg, 5.0)
+        assert alone == pytest.approx(93.0, abs=1e-6)
+
+
+@pytest.mark.parametrize("turned_deg", [3.0, 12.0, -12.0])
+def test_of_two_placements_the_one_whose_shape_the_silhouette_covers_is_chosen(camera: PinholeCamera,
+                                                                                 turned_deg: float) -> None:
+    """A cuboid car's exact silhouette (4.5 x 1.8 x 1.45 m, 11 m down the road, length axis at 93 deg): of its true
+    box and the box turned about its visible end by `turned_deg`, the true one is chosen, whichever comes first."""
+    shape = VehicleShape.cuboid(4500.0, 1800.0, 1450.0)
+    end_mm = np.array([300.0, 11000.0])
+    placed = [Placement(place_on_end(end_mm, direction_of(93.0 + turn), 4500.0, 1800.0), "plate", end_mm, end_mm, 0.0)
+              for turn in (0.0, turned_deg)]
+    roi = Box(0, 0, 1280, 720)
+    mask = silhouette(camera, shape, placed[0].box, roi, 1)
+    assert best_overlap(placed, camera, shape, roi, mask) is placed[0]
+    assert best_overlap(placed[::-1], camera, shape, roi, mask) is placed[0]
 
 
 @pytest.mark.parametrize(("heading_deg", "bottom_mm"), [(90.0, 300.0), (60.0, 0.0), (120.0, 1000.0)])

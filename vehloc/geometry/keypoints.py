@@ -5,7 +5,8 @@ vertical through P (towards the camera's vertical vanishing point) meets the end
 image's profile below the plate (`vehloc.geometry.end_bottom`), or, where that edge is not found, the front
 line l_F; C lies along the length axis, into the vehicle (perpendicular to the line through the rear lamps either
 side of the plate, where a pair is found (`vehloc.geometry.lamps`), else to the plate's upper and lower edges on the
-road; for a small plate only when they agree with the side line's direction, else along it); the box's
+road; for a small plate only when they agree with the side line's direction, else along whichever of the two puts
+the predicted model's shape over more of the silhouette); the box's
 visible end is stuck to O_W with its long centreline along O_W C_W. The plate also says which of the two axes
 the body's edges show is the length axis (the one across the plate's edges): an end seen head-on shows little
 of its sides. A plate-like part that no
@@ -34,7 +35,9 @@ from vehloc.data.shapes import VehicleShape
 from vehloc.data.specs import VehicleSpec
 from vehloc.geometry.end_bottom import EndBottomParams, end_bottom_px
 from vehloc.geometry.footprint import FootprintLines, FootprintParams, detect_footprint
+from vehloc.geometry.camera import PinholeCamera
 from vehloc.geometry.lamps import LampParams, rear_lamps
+from vehloc.geometry.model_fit import coverage, overlap
 from vehloc.geometry.placement import VehicleBox, direction_of, heading_of, place_on_end, place_on_side
 from vehloc.geometry.plate import Plate, PlateParams, plate_candidates
 from vehloc.geometry.outcome import NotPlaced, ReasonCode
@@ -48,6 +51,8 @@ C_DISTANCE_MM = 1000.0
 """How far along the reference direction the paper's point C is taken."""
 END_DEPTH_MM = 150.0
 """The depth of a vehicle's end face, for the height of its lowest point."""
+CHOICE_SUPERSAMPLE = 4
+"""The grid (times the image's resolution) on which placements' shapes are overlapped with the silhouette."""
 
 
 @dataclass(frozen=True)
@@ -144,15 +149,25 @@ def rear_lamps_heading_deg(plate: Plate, roi_bgr: np.ndarray, mask: np.ndarray, 
     return (level_lines_direction_deg(lamps.line_px, road_to_image) + 90.0) % 180.0
 
 
-def plate_length_heading_deg(plate: Plate, road_to_image: ProjectiveTransform, footprint_heading_deg: float,
-                             agreement_deg: float) -> float:
-    """The length axis (deg, [0, 180)) perpendicular to the plate's edges where its sides were found on the image's
-    edges (a plate seen head-on gives the end's direction more closely than the body's lines), or, for a small plate
-    (its sides its colour's outline), where they agree with the footprint's within `agreement_deg`; else the
-    footprint's."""
+def plate_length_headings_deg(plate: Plate, road_to_image: ProjectiveTransform, footprint_heading_deg: float,
+                              agreement_deg: float) -> list[float]:
+    """The length axes (deg, [0, 180)) to place the box along: perpendicular to the plate's edges where its sides
+    were found on the image's edges (a plate seen head-on gives the end's direction more closely than the body's
+    lines) or, for a small plate (its sides its colour's outline), where they agree with the footprint's within
+    `agreement_deg`; else the footprint's, then the small plate's, for the silhouette to choose between
+    (`best_overlap`)."""
     heading = (plate_width_heading_deg(plate, road_to_image) + 90.0) % 180.0
     gap = abs((heading - footprint_heading_deg + 90.0) % 180.0 - 90.0)
-    return heading if not plate.small or gap <= agreement_deg else footprint_heading_deg
+    return [heading] if not plate.small or gap <= agreement_deg else [footprint_heading_deg, heading]
+
+
+def best_overlap(placements: list[Placement], camera: PinholeCamera, shape: VehicleShape, roi: Box,
+                 mask: np.ndarray) -> Placement:
+    """Of placements of the same vehicle, the one whose box, the predicted model's shape standing on it, overlaps
+    the silhouette `mask` (its ROI's) most (`vehloc.geometry.model_fit.overlap`; the first on a tie)."""
+    weights = np.asarray(mask, dtype=np.float32)
+    scores = [overlap(coverage(camera, shape, p.box, roi, CHOICE_SUPERSAMPLE), weights) for p in placements]
+    return placements[int(np.argmax(scores))]
 
 
 def plate_widths_mm(plate: Plate, road_to_image: ProjectiveTransform, camera_height_mm: float,
@@ -231,7 +246,8 @@ def paper_placement(
     (on or above the horizon).
 
     Plate branch: the length axis is perpendicular to the line through the rear lamps either side of the plate,
-    or to the plate's edges (a small plate's when they agree with the body's lines); O lies on the end's bottom edge
+    or to the plate's edges (a small plate's when they agree with the body's lines, else the one of the two whose
+    box the silhouette covers better); O lies on the end's bottom edge
     below P, found in the image where the end meets the road (`below_plate_on_end_mm`), else on the front footprint
     line, the lower edge at the visible end of the silhouette trimmed of the shadow below it; either edge is the
     bumper's, a bumper's height above the road, so it is lowered to the road by that height, the predicted model's
@@ -251,28 +267,47 @@ def _placement(
     plate, not_a_plate = plausible_plate(plate_candidates(roi_bgr, silhouette.mask, offset, params.plate),
                                          calibration, params.plate)
     if plate is not None and not plate.small:  # a small plate gives way to two wheels ...
-        return _plate_placement(plate, roi_bgr, silhouette, offset, calibration, spec, shape, params, visible_end)
+        return _plate_placement(plate, roi_bgr, silhouette, roi, calibration, spec, shape, params, visible_end)
     wheels = _wheel_placement(roi_bgr, silhouette, offset, calibration, spec, params, not_a_plate)
     if plate is not None and (isinstance(wheels, NotPlaced) or wheels.kind == "wheel"):  # ... to two wheels only
-        return _plate_placement(plate, roi_bgr, silhouette, offset, calibration, spec, shape, params, visible_end)
+        return _plate_placement(plate, roi_bgr, silhouette, roi, calibration, spec, shape, params, visible_end)
     return wheels
 
 
 def _plate_placement(
-    plate: Plate, roi_bgr: np.ndarray, silhouette: Silhouette, offset: np.ndarray, calibration: CameraCalibration,
+    plate: Plate, roi_bgr: np.ndarray, silhouette: Silhouette, roi: Box, calibration: CameraCalibration,
     spec: VehicleSpec, shape: VehicleShape, params: DetectorParams, visible_end: str | None,
 ) -> Placement | NotPlaced:
     """The plate branch (the module's docstring)."""
-    road_to_image, foot = calibration.road_to_image, calibration.camera.centre_mm[:2]
+    road_to_image, offset = calibration.road_to_image, np.array([roi.x0, roi.y0], dtype=float)
     across_plate_deg = (plate_width_heading_deg(plate, road_to_image) + 90.0) % 180.0
     lines = _footprint_lines(roi_bgr, silhouette.trimmed(), offset, calibration, params, across_plate_deg)
     if isinstance(lines, NotPlaced):
         return lines
     heading = rear_lamps_heading_deg(plate, roi_bgr, silhouette.mask, offset, road_to_image, params.plate.rear_lamps,
                                      visible_end)
-    if heading is None:
-        heading = plate_length_heading_deg(plate, road_to_image, lines.length_heading_deg,
-                                           params.plate.heading_agreement_deg)
+    headings = [heading] if heading is not None else plate_length_headings_deg(
+        plate, road_to_image, lines.length_heading_deg, params.plate.heading_agreement_deg)
+    placements = []
+    for heading in headings:
+        placed = _placed_below_plate(plate, heading, lines, roi_bgr, silhouette, offset, calibration, spec, shape,
+                                     params, visible_end)
+        if isinstance(placed, NotPlaced):
+            return placed
+        placements.append(placed)
+    if len(placements) == 1:
+        return placements[0]
+    return best_overlap(placements, calibration.camera, shape, roi, silhouette.mask)
+
+
+def _placed_below_plate(
+    plate: Plate, heading: float, lines: FootprintLines, roi_bgr: np.ndarray, silhouette: Silhouette,
+    offset: np.ndarray, calibration: CameraCalibration, spec: VehicleSpec, shape: VehicleShape,
+    params: DetectorParams, visible_end: str | None,
+) -> Placement | NotPlaced:
+    """The box along the length axis `heading` (deg), its visible end on O below the plate (the module's
+    docstring)."""
+    road_to_image, foot = calibration.road_to_image, calibration.camera.centre_mm[:2]
     height_mm = end_bottom_height_mm(shape, visible_end)
     o_mm = below_plate_on_end_mm(plate, roi_bgr, silhouette, offset, road_to_image, heading, height_mm,
                                  calibration.camera.centre_mm, params.footprint.end)
