@@ -34,8 +34,8 @@ from vehloc.data.boxes import Box
 from vehloc.data.shapes import VehicleShape
 from vehloc.data.specs import VehicleSpec
 from vehloc.geometry.end_bottom import EndBottomParams, end_bottom_px
-from vehloc.geometry.footprint import FootprintLines, FootprintParams, detect_footprint
 from vehloc.geometry.camera import PinholeCamera
+from vehloc.geometry.footprint import FootprintLines, FootprintParams, detect_footprint
 from vehloc.geometry.lamps import LampParams, rear_lamps
 from vehloc.geometry.model_fit import coverage, overlap
 from vehloc.geometry.placement import VehicleBox, direction_of, heading_of, place_on_end, place_on_side
@@ -289,8 +289,8 @@ def _plate_placement(
     headings = [heading] if heading is not None else plate_length_headings_deg(
         plate, road_to_image, lines.length_heading_deg, params.plate.heading_agreement_deg)
     placements = []
-    for heading in headings:
-        placed = _placed_below_plate(plate, heading, lines, roi_bgr, silhouette, offset, calibration, spec, shape,
+    for length_axis_deg in headings:
+        placed = _placed_below_plate(plate, length_axis_deg, lines, roi_bgr, silhouette, offset, calibration, spec, shape,
                                      params, visible_end)
         if isinstance(placed, NotPlaced):
             return placed
