@@ -21,7 +21,6 @@ from vehloc.geometry.keypoints import (
     lowered_line_mm,
     Placement,
     best_overlap,
-    plate_length_headings_deg,
     plate_width_heading_deg,
     plate_widths_mm,
 )
@@ -88,26 +87,6 @@ def test_the_plates_edges_give_the_length_axis(camera: PinholeCamera, heading_de
     assert abs((width_deg - heading_deg - 90.0 + 90.0) % 180.0 - 90.0) < 1e-6
 
 
-def test_a_small_plates_heading_is_kept_alone_only_when_the_body_agrees(camera: PinholeCamera) -> None:
-    """A small plate (its sides its colour's outline): within the agreement its heading alone; beyond it the
-    footprint's, then the plate's, for the silhouette to choose between."""
-    plate = dataclasses.replace(_plate_seen(camera, 93.0), small=True)
-    road_to_image = camera.road_to_image()
-    (alone,) = plate_length_headings_deg(plate, road_to_image, 90.0, 5.0)
-    assert alone == pytest.approx(93.0, abs=1e-6)
-    footprint, own = plate_length_headings_deg(plate, road_to_image, 80.0, 5.0)
-    assert footprint == 80.0 and own == pytest.approx(93.0, abs=1e-6)
-
-
-def test_a_plate_whose_sides_were_found_on_the_edges_sets_the_heading(camera: PinholeCamera) -> None:
-    """A plate whose sides were found on the image's edges sets the heading however far the footprint's lies off."""
-    plate = _plate_seen(camera, 93.0)
-    road_to_image = camera.road_to_image()
-    for footprint_deg in (90.0, 80.0, 60.0):
-        (alone,) = plate_length_headings_deg(plate, road_to_image, footprint_deg, 5.0)
-        assert alone == pytest.approx(93.0, abs=1e-6)
-
-
 @pytest.mark.parametrize("turned_deg", [3.0, 12.0, -12.0])
 def test_of_two_placements_the_one_whose_shape_the_silhouette_covers_is_chosen(camera: PinholeCamera,
                                                                                  turned_deg: float) -> None:
@@ -163,13 +142,13 @@ def test_the_end_bottom_height_is_the_lowest_point_near_that_end() -> None:
     assert end_bottom_height_mm(shape, None) == 275.0
 
 
-def test_a_heading_agreement_out_of_range_is_named_before_any_work() -> None:
+def test_a_plate_setting_out_of_range_is_named_before_any_work() -> None:
     defaults = DetectorParams.from_config()
     groups = {name: dataclasses.asdict(getattr(defaults, name)) for name in ("footprint", "plate", "wheels")}
-    groups["plate"]["heading_agreement_deg"] = -1.0
-    with pytest.raises(ConfigError, match=r"plate\.heading_agreement_deg: must be in \[0, 90\], got -1.0"):
+    groups["plate"]["min_score"] = -1.0
+    with pytest.raises(ConfigError, match=r"plate\.min_score: must be in \[0, 1\], got -1.0"):
         DetectorParams.from_mapping(groups)
-    groups["plate"] |= {"heading_agreement_deg": 5.0, "width_range_mm": [530.0, 300.0]}
+    groups["plate"] |= {"min_score": 0.5, "width_range_mm": [530.0, 300.0]}
     with pytest.raises(ConfigError, match=r"plate\.width_range_mm\[1\]: must be >= 530, got 300.0"):
         DetectorParams.from_mapping(groups)
 

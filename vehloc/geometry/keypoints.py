@@ -5,8 +5,7 @@ vertical through P (towards the camera's vertical vanishing point) meets the end
 image's profile below the plate (`vehloc.geometry.end_bottom`), or, where that edge is not found, the front
 line l_F; C lies along the length axis, into the vehicle (perpendicular to the line through the rear lamps either
 side of the plate, where a pair is found (`vehloc.geometry.lamps`), else to the plate's upper and lower edges on the
-road; for a small plate only when they agree with the side line's direction, else along whichever of the two puts
-the predicted model's shape over more of the silhouette); the box's
+road, or to the body's lines, whichever puts the predicted model's shape over more of the silhouette); the box's
 visible end is stuck to O_W with its long centreline along O_W C_W. The plate also says which of the two axes
 the body's edges show is the length axis (the one across the plate's edges): an end seen head-on shows little
 of its sides. A plate-like part that no
@@ -149,18 +148,6 @@ def rear_lamps_heading_deg(plate: Plate, roi_bgr: np.ndarray, mask: np.ndarray, 
     return (level_lines_direction_deg(lamps.line_px, road_to_image) + 90.0) % 180.0
 
 
-def plate_length_headings_deg(plate: Plate, road_to_image: ProjectiveTransform, footprint_heading_deg: float,
-                              agreement_deg: float) -> list[float]:
-    """The length axes (deg, [0, 180)) to place the box along: perpendicular to the plate's edges where its sides
-    were found on the image's edges (a plate seen head-on gives the end's direction more closely than the body's
-    lines) or, for a small plate (its sides its colour's outline), where they agree with the footprint's within
-    `agreement_deg`; else the footprint's, then the small plate's, for the silhouette to choose between
-    (`best_overlap`)."""
-    heading = (plate_width_heading_deg(plate, road_to_image) + 90.0) % 180.0
-    gap = abs((heading - footprint_heading_deg + 90.0) % 180.0 - 90.0)
-    return [heading] if not plate.small or gap <= agreement_deg else [footprint_heading_deg, heading]
-
-
 def best_overlap(placements: list[Placement], camera: PinholeCamera, shape: VehicleShape, roi: Box,
                  mask: np.ndarray) -> Placement:
     """Of placements of the same vehicle, the one whose box, the predicted model's shape standing on it, overlaps
@@ -246,8 +233,8 @@ def paper_placement(
     (on or above the horizon).
 
     Plate branch: the length axis is perpendicular to the line through the rear lamps either side of the plate,
-    or to the plate's edges (a small plate's when they agree with the body's lines, else the one of the two whose
-    box the silhouette covers better); O lies on the end's bottom edge
+    or to the plate's edges, or the body's lines', whichever box the silhouette covers better; O lies on the end's
+    bottom edge
     below P, found in the image where the end meets the road (`below_plate_on_end_mm`), else on the front footprint
     line, the lower edge at the visible end of the silhouette trimmed of the shadow below it; either edge is the
     bumper's, a bumper's height above the road, so it is lowered to the road by that height, the predicted model's
@@ -286,18 +273,14 @@ def _plate_placement(
         return lines
     heading = rear_lamps_heading_deg(plate, roi_bgr, silhouette.mask, offset, road_to_image, params.plate.rear_lamps,
                                      visible_end)
-    headings = [heading] if heading is not None else plate_length_headings_deg(
-        plate, road_to_image, lines.length_heading_deg, params.plate.heading_agreement_deg)
-    placements = []
-    for length_axis_deg in headings:
-        placed = _placed_below_plate(plate, length_axis_deg, lines, roi_bgr, silhouette, offset, calibration, spec, shape,
-                                     params, visible_end)
-        if isinstance(placed, NotPlaced):
-            return placed
-        placements.append(placed)
-    if len(placements) == 1:
-        return placements[0]
-    return best_overlap(placements, calibration.camera, shape, roi, silhouette.mask)
+    headings = [heading] if heading is not None else [across_plate_deg, lines.length_heading_deg]
+    placements = [_placed_below_plate(plate, length_axis_deg, lines, roi_bgr, silhouette, offset, calibration, spec,
+                                      shape, params, visible_end) for length_axis_deg in headings]
+    failed = [placed for placed in placements if isinstance(placed, NotPlaced)]
+    if failed:
+        return failed[0]
+    return placements[0] if len(placements) == 1 else best_overlap(placements, calibration.camera, shape, roi,
+                                                                   silhouette.mask)
 
 
 def _placed_below_plate(

@@ -61,7 +61,6 @@ class PlateParams:
     min_crossings: int
     expected_crossings: int
     min_score: float
-    heading_agreement_deg: float
     width_range_mm: tuple[float, float]
     max_height_mm: float
     rear_lamps: LampParams
@@ -88,7 +87,6 @@ class PlateParams:
         check_range("min_crossings", self.min_crossings, 0)
         check_range("expected_crossings", self.expected_crossings, max(1, self.min_crossings))
         check_range("min_score", self.min_score, 0.0, 1.0)
-        check_range("heading_agreement_deg", self.heading_agreement_deg, 0.0, 90.0)
         check_interval("width_range_mm", self.width_range_mm, 0.0, low_open=True)
         check_range("max_height_mm", self.max_height_mm, 0.0, low_open=True)
 
