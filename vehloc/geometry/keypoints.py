@@ -233,9 +233,9 @@ def paper_placement(
     (on or above the horizon).
 
     Plate branch: the length axis is perpendicular to the line through the rear lamps either side of the plate,
-    or to the plate's edges, or the body's lines', whichever box the silhouette covers better; O lies on the end's
-    bottom edge
-    below P, found in the image where the end meets the road (`below_plate_on_end_mm`), else on the front footprint
+    else perpendicular to the plate's edges or along the body's lines, whichever box the silhouette covers better;
+    O lies on the end's bottom edge below P, found in the image where the end meets the road
+    (`below_plate_on_end_mm`), else on the front footprint
     line, the lower edge at the visible end of the silhouette trimmed of the shadow below it; either edge is the
     bumper's, a bumper's height above the road, so it is lowered to the road by that height, the predicted model's
     (`shape`; `visible_end` `front` or `rear` when known). Wheel branch: the lines of the whole silhouette, whose
