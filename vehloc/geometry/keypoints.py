@@ -151,7 +151,10 @@ def rear_lamps_heading_deg(plate: Plate, roi_bgr: np.ndarray, mask: np.ndarray, 
 def best_overlap(placements: list[Placement], camera: PinholeCamera, shape: VehicleShape, roi: Box,
                  mask: np.ndarray) -> Placement:
     """Of placements of the same vehicle, the one whose box, the predicted model's shape standing on it, overlaps
-    the silhouette `mask` (its ROI's) most (`vehloc.geometry.model_fit.overlap`; the first on a tie)."""
+    the silhouette `mask` (its ROI's) most (`vehloc.geometry.model_fit.overlap`; the first on a tie); a lone one
+    as it is."""
+    if len(placements) == 1:
+        return placements[0]
     weights = np.asarray(mask, dtype=np.float32)
     scores = [overlap(coverage(camera, shape, p.box, roi, CHOICE_SUPERSAMPLE), weights) for p in placements]
     return placements[int(np.argmax(scores))]
@@ -279,8 +282,7 @@ def _plate_placement(
     failed = [placed for placed in placements if isinstance(placed, NotPlaced)]
     if failed:
         return failed[0]
-    return placements[0] if len(placements) == 1 else best_overlap(placements, calibration.camera, shape, roi,
-                                                                   silhouette.mask)
+    return best_overlap(placements, calibration.camera, shape, roi, silhouette.mask)
 
 
 def _placed_below_plate(

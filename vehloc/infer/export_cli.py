@@ -3,8 +3,8 @@ file, and with `quantize=int8` an INT8 model beside it (`onnx_path=model.onnx qu
 
 Before any work the settings are checked, and the outputs must be writable (not a folder, in a folder that can
 be written, never one of the inputs); then the checkpoint is checked to be a file, the data read and the
-checkpoint loaded (as `vehloc-eval` does: a missing data set is named before torch loads); each file replaces its output
-only when it has passed every check, so a failed or interrupted export leaves an earlier file as it was."""
+checkpoint loaded (as `vehloc-eval` does: a missing data set is named before torch loads); each file replaces its
+output only when it has passed every check, so a failed or interrupted export leaves an earlier file as it was."""
 
 from __future__ import annotations
 
