@@ -14,6 +14,7 @@ from detector_scenes import (
 )
 from vehloc.data.boxes import Box
 from vehloc.geometry.footprint import FootprintParams, detect_footprint
+from vehloc.geometry import keypoints
 from vehloc.geometry.keypoints import DetectorParams, paper_placement
 from vehloc.geometry.outcome import NotPlaced, ReasonCode
 from vehloc.geometry.plate import PlateParams, detect_plate
@@ -85,6 +86,20 @@ def test_a_plate_is_taken_only_with_a_plates_width_on_the_road():
     low_mm, high_mm = (float(v) for v in re.search(r"found no wheel; a plate-like part would be (\d+)-(\d+) mm wide",
                                                    refused.message).groups())
     assert low_mm < 440.0 < high_mm
+
+
+@pytest.mark.parametrize(("car", "pose"), [(SILVER, "near_rear"), (SILVER, "far_rear_20"), (BLACK, "near_rear")])
+@pytest.mark.parametrize("lamps_off_deg", [0.0, 6.0, -6.0])
+def test_the_rear_lamps_heading_is_weighed_against_the_bodys_lines(monkeypatch, car, pose, lamps_off_deg):
+    """Rear views 4 and 10 m away, their lamps' heading told as the truth turned by `lamps_off_deg`: the plate
+    branch's box lies within 0.5 deg of the truth either way (measured: 0.3 deg at most), the box along the body's
+    lines chosen by the silhouette where the lamps are off, not the lamps' taken alone."""
+    case = render_case(car, pose)
+    monkeypatch.setattr(keypoints, "rear_lamps_heading_deg",
+                        lambda *args: (case.pose.heading_deg + lamps_off_deg) % 180.0)
+    placement = placement_of(case, car, DetectorParams.from_config(), "rear")
+    assert placement.kind == "plate"
+    assert heading_error_deg(placement.box.heading_deg, case.pose.heading_deg) <= 0.5
 
 
 @pytest.mark.parametrize("pose", list(SMALL_PLATE_QUARTER_POSES) + ["small_rear_24"])

@@ -3,9 +3,9 @@
 The plate branch, first: O is the footprint point below the plate's middle P, where the image of the
 vertical through P (towards the camera's vertical vanishing point) meets the end's bottom edge, found on the
 image's profile below the plate (`vehloc.geometry.end_bottom`), or, where that edge is not found, the front
-line l_F; C lies along the length axis, into the vehicle (perpendicular to the line through the rear lamps either
+line l_F; C lies along the length axis, into the vehicle: perpendicular to the line through the rear lamps either
 side of the plate, where a pair is found (`vehloc.geometry.lamps`), else to the plate's upper and lower edges on the
-road, or to the body's lines, whichever puts the predicted model's shape over more of the silhouette); the box's
+road, or along the body's lines, whichever puts the predicted model's shape over more of the silhouette; the box's
 visible end is stuck to O_W with its long centreline along O_W C_W. The plate also says which of the two axes
 the body's edges show is the length axis (the one across the plate's edges): an end seen head-on shows little
 of its sides. A plate-like part that no
@@ -235,8 +235,8 @@ def paper_placement(
     silhouette); `NotPlaced` saying why when the key points cannot be found or a key point maps to no road point
     (on or above the horizon).
 
-    Plate branch: the length axis is perpendicular to the line through the rear lamps either side of the plate,
-    else perpendicular to the plate's edges or along the body's lines, whichever box the silhouette covers better;
+    Plate branch: the length axis is perpendicular to the line through the rear lamps either side of the plate
+    (else to the plate's edges) or along the body's lines, whichever box the silhouette covers better;
     O lies on the end's bottom edge below P, found in the image where the end meets the road
     (`below_plate_on_end_mm`), else on the front footprint
     line, the lower edge at the visible end of the silhouette trimmed of the shadow below it; either edge is the
@@ -274,9 +274,9 @@ def _plate_placement(
     lines = _footprint_lines(roi_bgr, silhouette.trimmed(), offset, calibration, params, across_plate_deg)
     if isinstance(lines, NotPlaced):
         return lines
-    heading = rear_lamps_heading_deg(plate, roi_bgr, silhouette.mask, offset, road_to_image, params.plate.rear_lamps,
-                                     visible_end)
-    headings = [heading] if heading is not None else [across_plate_deg, lines.length_heading_deg]
+    lamps_deg = rear_lamps_heading_deg(plate, roi_bgr, silhouette.mask, offset, road_to_image,
+                                       params.plate.rear_lamps, visible_end)
+    headings = [across_plate_deg if lamps_deg is None else lamps_deg, lines.length_heading_deg]
     placements = [_placed_below_plate(plate, length_axis_deg, lines, roi_bgr, silhouette, offset, calibration, spec,
                                       shape, params, visible_end) for length_axis_deg in headings]
     failed = [placed for placed in placements if isinstance(placed, NotPlaced)]
