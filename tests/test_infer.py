@@ -52,16 +52,31 @@ def trained(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
 
 @pytest.fixture(scope="module")
 def exported(trained: tuple[Path, Path], tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
-    """The checkpoint exported once by `vehloc-export`, the demo set's shapes in its metadata: (file, stdout)."""
+    """The checkpoint exported once by `vehloc-export`, the demo set's shapes in its metadata: (file, stdout); the
+    checkpoint read once (checked, then exported as read)."""
     root, checkpoint = trained
     folder = tmp_path_factory.mktemp("onnx")
     run = subprocess.run(
-        [sys.executable, "-m", "vehloc.infer.export_cli", f"ckpt_path={checkpoint}", f"output={folder / 'model.onnx'}",
+        [sys.executable, "-c", COUNTING_TORCH_LOADS, f"ckpt_path={checkpoint}", f"output={folder / 'model.onnx'}",
          f"data_root={root}", "parity_images=24", f"hydra.run.dir={folder / 'run'}"],
         capture_output=True, text=True,
     )
     assert run.returncode == 0, run.stderr
+    assert run.stderr.count(f"torch.load {checkpoint}") == 1, run.stderr  # the checkpoint is read once
     return folder / "model.onnx", run.stdout
+
+
+# vehloc-export run with every torch.load it makes told on stderr
+COUNTING_TORCH_LOADS = """
+import runpy, sys, torch
+load = torch.load
+def told(path, *args, **kwargs):
+    print(f"torch.load {path}", file=sys.stderr)
+    return load(path, *args, **kwargs)
+torch.load = told
+sys.argv[0] = "vehloc-export"
+runpy.run_module("vehloc.infer.export_cli", run_name="__main__", alter_sys=True)
+"""
 
 
 def test_export_passes_parity_on_real_images(exported: tuple[Path, str]) -> None:

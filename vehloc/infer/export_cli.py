@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from omegaconf import DictConfig, OmegaConf
 
@@ -108,22 +109,23 @@ def _run(cfg: DictConfig) -> None:
         raise VehlocError(f"data_root {params.data_root}: the test split is empty; the parity check needs images")
     if int8_output is not None and not data.train:
         raise VehlocError(f"data_root {params.data_root}: the train split is empty; INT8 calibration needs images")
-    if params.ckpt_path:
-        read_checkpoint(Path(params.ckpt_path))  # a foreign checkpoint is named before torch.onnx and Lightning load
+    # a foreign checkpoint is named before torch.onnx and Lightning load; the export takes it as read
+    checkpoint = read_checkpoint(Path(params.ckpt_path)) if params.ckpt_path else None
     parity = data.test[:: max(1, len(data.test) // params.parity_images)][: params.parity_images]
-    fp32_model = Path(params.onnx_path) if params.onnx_path else _export(params, fp32_output, parity)
+    fp32_model = Path(params.onnx_path) if params.onnx_path else _export(params, checkpoint, fp32_output, parity)
     if int8_output is not None:
         _quantize(params, fp32_model, int8_output, data, parity)
 
 
-def _export(params: ExportParams, output: Path, parity: Sequence[CompCarsSample]) -> Path:
+def _export(params: ExportParams, checkpoint: dict[str, Any], output: Path, parity: Sequence[CompCarsSample]) -> Path:
     from vehloc.data.shapes import SHAPES_FILE, read_shapes
 
     shapes_path = Path(params.data_root) / SHAPES_FILE
     shapes = read_shapes(shapes_path) if shapes_path.is_file() else None
     from vehloc.train.export import export_checkpoint  # torch.onnx and Lightning: after every input is checked
 
-    report = export_checkpoint(Path(params.ckpt_path), output, parity, params.opset, params.tolerance, shapes)
+    report = export_checkpoint(Path(params.ckpt_path), output, parity, params.opset, params.tolerance, shapes,
+                               checkpoint=checkpoint)
     print(
         f"wrote {report.output} (opset {report.opset}); parity on {report.parity_images} test images of "
         f"{params.data_root}: max |logit diff| {report.max_abs_logit_diff:.2e}, same top-1 on "

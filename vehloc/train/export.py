@@ -16,6 +16,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import onnx
@@ -97,15 +98,17 @@ def export_checkpoint(
     opset: int = DEFAULT_OPSET,
     tolerance: float = 1e-4,
     shapes: dict[int, VehicleShape] | None = None,
+    checkpoint: dict[str, Any] | None = None,
 ) -> ExportReport:
     """Export, check and atomically place the ONNX model of a checkpoint (see the module docstring); the
     parity check runs on `parity_samples`, labelled images of the checkpoint's kind. `shapes` (by model id)
-    go into the metadata for the classes they cover."""
+    go into the metadata for the classes they cover; `checkpoint`: the file's contents where the caller has
+    read them already (`read_checkpoint`), else they are read here."""
     if opset < 17:
         raise ExportError(f"opset {opset} is below 17, the lowest vehloc exports")
     if not parity_samples:
         raise ExportError("the parity check needs at least one real image")
-    checkpoint = read_checkpoint(checkpoint_path)
+    checkpoint = read_checkpoint(checkpoint_path) if checkpoint is None else checkpoint
     metadata = metadata_of(checkpoint, Path(checkpoint_path), shapes)
     deployed = DeployedClassifier(load_classifier(checkpoint, checkpoint_path)).eval()
     images = pytorch_inputs(parity_samples, metadata)
