@@ -36,7 +36,7 @@ from vehloc.geometry.silhouette import PIXEL_CORNERS
 class PlateParams:
     """Colour rule (OpenCV's 8-bit HSV: H 0-180, S and V 0-255), character rows, edges and plate tests, the
     widths and mounting heights a plate has (which the placement checks on the road), and the rear lamps beside it
-    (which set the plate branch's heading)."""
+    (whose heading the plate branch weighs against the body's lines)."""
 
     hue_range: tuple[int, int]
     saturation_range: tuple[int, int]
