@@ -95,6 +95,27 @@ def test_the_gains_and_losses_of_several_splits_add_up():
     assert fit[POOLED].gained == (7, 100005, 100007, 100009)
 
 
+def test_each_gate_per_group_before_and_after():
+    """A view per case (seeds 0-9 `front`, the rest `side`) and seeds 2 and 4 (front) losing the paper's method,
+    13 (side) the fit: per view (and model: one), the group's cases and each gate's rate over its own cases in each
+    run, exactly; a column only one run holds gives no groups."""
+    before, after = run_frame(), run_frame()
+    after.loc[[2, 4], "paper_within"] = 0.0
+    after.loc[13, "fit_within"] = 0.0
+    for frame in (before, after):
+        frame["view"] = np.where(frame["seed"] < 10, "front", "side")
+    before["colour_group"] = "grey"
+    everything = compare_runs(read_cases_of(before), read_cases_of(after)).groups
+    assert list(everything["by"]) == ["view", "view", "model"]  # no colour group: the run after holds none
+    groups = everything.set_index("group")
+    assert list(groups["cases"]) == [10, 30, 40]
+    assert groups.loc["front", "paper_within_before_pct"] == 100.0
+    assert groups.loc["front", "paper_within_after_pct"] == pytest.approx(100.0 * 3 / 5, abs=1e-12)
+    assert groups.loc["side", "paper_within_after_pct"] == 100.0
+    assert groups.loc["side", "fit_within_after_pct"] == pytest.approx(100.0 * 29 / 30, abs=1e-12)
+    assert groups.loc["front", "fit_within_after_pct"] == groups.loc["side", "localized_after_pct"] == 100.0
+
+
 def test_a_run_compared_with_itself_changes_nothing():
     comparison = compare_runs(read_cases_of(run_frame()), read_cases_of(run_frame().iloc[::-1]))
     assert comparison.changed.empty
@@ -149,8 +170,8 @@ def test_the_script_writes_the_comparison(tmp_path: Path):
     run = subprocess.run([sys.executable, str(SCRIPT), str(tmp_path / "before"), str(tmp_path / "after"),
                           "--out", str(out)], capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr
-    assert {p.name for p in out.iterdir()} == {"gates.csv", "errors.csv", "changed_cases.csv", "compare.md",
-                                               "compare.png"}
+    assert {p.name for p in out.iterdir()} == {"gates.csv", "errors.csv", "changed_cases.csv", "groups.csv",
+                                               "compare.md", "compare.png"}
     gates = pd.read_csv(out / "gates.csv").set_index("gate")
     fit = gates.loc["model fit within 1 % and 1 deg (correct model)"]
     assert (fit["lost"], fit["gained"], fit["seeds lost"]) == (3, 0, "3, 5, 9")

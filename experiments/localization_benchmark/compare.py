@@ -8,7 +8,8 @@ only the cases that chance moves?
 Reads each run's `cases.csv` (a run folder or the file); both must hold the same seeds, drawn as the same cases.
 Writes into `--out`: `gates.csv` (per split and gate: each run's rate, the seeds gained and lost, the exact McNemar
 p-value), `errors.csv` (per error column: cases better and worse, the median change of those that moved, the sign
-test), `changed_cases.csv`, `compare.md` and `compare.png` (each moved case's errors before against after).
+test), `changed_cases.csv`, `groups.csv` (per split, view, colour group, distance band and model: each gate's rate
+before and after), `compare.md` and `compare.png` (each moved case's errors before against after).
 """
 
 from __future__ import annotations

@@ -21,6 +21,8 @@ ERROR_COLUMNS = ("fit_position_pct", "fit_heading_deg", "paper_position_pct", "p
 SHOWN_COLUMNS = ("status", "key_point", *ERROR_COLUMNS)
 """Per changed case, each run's value of these beside each other."""
 REQUIRED_COLUMNS = ("split", "seed", "model", "status", "key_point", *DRAW_COLUMNS, *GATES)
+GROUP_COLUMNS = ("view", "colour_group", "distance_band", "model")
+"""The groups whose gates a comparison gives before and after, where both runs' cases.csv hold the column."""
 POOLED = "all"
 """The split name of the rows over every split's cases together."""
 MOVE_TOLERANCE = 0.01
@@ -61,12 +63,13 @@ class ErrorChange:
 
 @dataclass(frozen=True)
 class Comparison:
-    """Two runs compared: each gate and error column per split, and the cases whose outcome changed (one row
-    each, the runs' values in `<column>_before` and `<column>_after`)."""
+    """Two runs compared: each gate and error column per split, the cases whose outcome changed (one row each,
+    the runs' values in `<column>_before` and `<column>_after`), and each gate's rate per group (`group_rates`)."""
 
     gates: tuple[GateChange, ...]
     errors: tuple[ErrorChange, ...]
     changed: pd.DataFrame
+    groups: pd.DataFrame
 
 
 def sign_test_p(wins: int, losses: int) -> float:
@@ -178,6 +181,29 @@ def changed_cases(before: pd.DataFrame, after: pd.DataFrame) -> pd.DataFrame:
     return rows[moved].reset_index(drop=True)
 
 
+def split_parts(cases: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
+    """A run's cases per split (in their order), and all of them (`POOLED`) where it holds more than one split."""
+    parts = [(str(split), part) for split, part in cases.groupby("split", sort=False)]
+    return parts + [(POOLED, cases)] if len(parts) > 1 else parts
+
+
+def group_rates(before: pd.DataFrame, after: pd.DataFrame) -> pd.DataFrame:
+    """Per split (`split_parts`), group column (`GROUP_COLUMNS` that both runs hold) and group: the group's cases
+    and each gate's rate (per cent of the group's cases in the gate) before and after, in `<gate>_before_pct` and
+    `<gate>_after_pct`. The same cases in the same order in both frames: a group is the same cases in both runs."""
+    rows = []
+    for split, part in split_parts(before):
+        for by in (column for column in GROUP_COLUMNS if column in before and column in after):
+            for group, cases in part.groupby(by, sort=True):
+                row = {"split": split, "by": by, "group": str(group), "cases": len(cases)}
+                for gate in GATES:
+                    row[f"{gate}_before_pct"] = rate_pct(cases[gate].to_numpy(dtype=float))
+                    row[f"{gate}_after_pct"] = rate_pct(after.loc[cases.index, gate].to_numpy(dtype=float))
+                rows.append(row)
+    columns = ["split", "by", "group", "cases", *(f"{gate}_{run}_pct" for gate in GATES for run in ("before", "after"))]
+    return pd.DataFrame(rows, columns=columns)
+
+
 def compare_runs(before: pd.DataFrame, after: pd.DataFrame, names: tuple[str, str] = ("before", "after")
                  ) -> Comparison:
     """Two runs' cases (`read_cases`) compared per split (in the order of `before`), and over them all (`POOLED`)
@@ -185,12 +211,9 @@ def compare_runs(before: pd.DataFrame, after: pd.DataFrame, names: tuple[str, st
     (naming the run by `names`) unless they are the same cases."""
     check_same_cases(before, after, names)
     after = after.loc[before.index]
-    parts = [(str(split), part) for split, part in before.groupby("split", sort=False)]
-    if len(parts) > 1:
-        parts.append((POOLED, before))
     gates, errors = [], []
-    for split, part in parts:
+    for split, part in split_parts(before):
         other = after.loc[part.index]
         gates += [gate_change(split, gate, part, other) for gate in GATES]
         errors += [error_change(split, column, part, other) for column in ERROR_COLUMNS]
-    return Comparison(tuple(gates), tuple(errors), changed_cases(before, after))
+    return Comparison(tuple(gates), tuple(errors), changed_cases(before, after), group_rates(before, after))

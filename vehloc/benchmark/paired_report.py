@@ -1,6 +1,7 @@
-"""Two benchmark runs compared (`vehloc.benchmark.paired`), written for a person: `gates.csv`, `errors.csv` and
-`changed_cases.csv`, `compare.md` (the gates with their gains, losses and p-values, the error columns, the
-changed cases) and `compare.png` (each case's error before against after, per method)."""
+"""Two benchmark runs compared (`vehloc.benchmark.paired`), written for a person: `gates.csv`, `errors.csv`,
+`changed_cases.csv` and `groups.csv`, `compare.md` (the gates with their gains, losses and p-values, the error
+columns, each gate per group before and after, the changed cases) and `compare.png` (each case's error before
+against after, per method)."""
 
 from __future__ import annotations
 
@@ -23,6 +24,9 @@ SEEDS_SHOWN = 12
 ERRORS = {"position_pct": "position error (% of the diagonal)", "heading_deg": "heading error (deg)"}
 METHOD_BARS = {"fit": (1.0, 1.0), "paper": (2.85, 2.5)}
 """Each method's bars on its errors (`ERRORS`' order), drawn on the figure."""
+GATE_SHORT = {"localized": "localized %", "fit_within": "fit within %", "key_points_found": "key points found %",
+              "paper_within": "paper's method within %"}
+"""The gates' names as the per-group tables' columns."""
 
 
 def seeds_text(seeds: tuple[int, ...]) -> str:
@@ -46,6 +50,20 @@ def errors_table(comparison: Comparison) -> pd.DataFrame:
     return pd.DataFrame([{"split": e.split, "error": e.column, "cases in both": e.cases, "better": e.better,
                           "worse": e.worse, "median change of the moved": e.median_change, "sign test p": e.p_value}
                          for e in comparison.errors])
+
+
+def groups_table(comparison: Comparison, by: str) -> pd.DataFrame:
+    """Per split and group of the column `by`: its cases and each gate's rate as `before -> after` (per cent;
+    `-` where the group has no case in the gate)."""
+    groups = comparison.groups[comparison.groups["by"] == by]
+
+    def shown(before: float, after: float) -> str:
+        return "-" if np.isnan(before) and np.isnan(after) else f"{before:.1f} -> {after:.1f}"
+
+    return pd.DataFrame([{"split": row["split"], by.replace("_", " "): row["group"], "cases": row["cases"]}
+                         | {GATE_SHORT[gate]: shown(row[f"{gate}_before_pct"], row[f"{gate}_after_pct"])
+                            for gate in GATES}
+                         for _, row in groups.iterrows()])
 
 
 def paired_figure(changed: pd.DataFrame, path: Path) -> Path:
@@ -89,7 +107,11 @@ def write_comparison(comparison: Comparison, out_dir: Path, names: tuple[str, st
     gates, errors = gates_table(comparison), errors_table(comparison)
     written = [write_text(out_dir / "gates.csv", gates.to_csv(index=False, float_format="%.4g")),
                write_text(out_dir / "errors.csv", errors.to_csv(index=False, float_format="%.4g")),
-               write_text(out_dir / "changed_cases.csv", comparison.changed.to_csv(index=False, float_format="%.3f"))]
+               write_text(out_dir / "changed_cases.csv", comparison.changed.to_csv(index=False, float_format="%.3f")),
+               write_text(out_dir / "groups.csv", comparison.groups.to_csv(index=False, float_format="%.2f"))]
+    group_lines = []
+    for by in comparison.groups["by"].unique():
+        group_lines += [f"### By {by.replace('_', ' ')}", "", markdown_table(groups_table(comparison, by)), ""]
     lines = [f"# {names[0]} against {names[1]}", "",
              "The same seeds, each drawn as the same case, run twice. A gate's rate is over each run's own cases "
              "of the gate; gained and lost are over the cases in the gate in both. Only cases that changed sides "
@@ -101,6 +123,9 @@ def write_comparison(comparison: Comparison, out_dir: Path, names: tuple[str, st
              "diagonal or deg), the median change (after - before) of those that moved, and the sign test on better "
              "against worse.", "",
              markdown_table(errors, "{:.3g}"), "",
+             "## By group", "",
+             "Each gate's rate before -> after (per cent of the group's cases in the gate; all in `groups.csv`).", "",
+             *(group_lines or ["Neither run's cases.csv names a group.", ""]),
              f"## The {len(comparison.changed)} changed cases", "",
              markdown_table(comparison.changed, "{:.3f}") if len(comparison.changed) else "No case changed.", "",
              "![each changed case's error before and after](compare.png)", ""]
