@@ -54,14 +54,14 @@ def errors_table(comparison: Comparison) -> pd.DataFrame:
 
 def groups_table(comparison: Comparison, by: str) -> pd.DataFrame:
     """Per split and group of the column `by`: its cases and each gate's rate as `before -> after` (per cent;
-    `-` where the group has no case in the gate)."""
+    `-` where the run has no case of the group in the gate)."""
     groups = comparison.groups[comparison.groups["by"] == by]
 
-    def shown(before: float, after: float) -> str:
-        return "-" if np.isnan(before) and np.isnan(after) else f"{before:.1f} -> {after:.1f}"
+    def pct(value: float) -> str:
+        return "-" if np.isnan(value) else f"{value:.1f}"
 
     return pd.DataFrame([{"split": row["split"], by.replace("_", " "): row["group"], "cases": row["cases"]}
-                         | {GATE_SHORT[gate]: shown(row[f"{gate}_before_pct"], row[f"{gate}_after_pct"])
+                         | {GATE_SHORT[gate]: f"{pct(row[f'{gate}_before_pct'])} -> {pct(row[f'{gate}_after_pct'])}"
                             for gate in GATES}
                          for _, row in groups.iterrows()])
 
@@ -125,7 +125,7 @@ def write_comparison(comparison: Comparison, out_dir: Path, names: tuple[str, st
              markdown_table(errors, "{:.3g}"), "",
              "## By group", "",
              "Each gate's rate before -> after (per cent of the group's cases in the gate; all in `groups.csv`).", "",
-             *(group_lines or ["Neither run's cases.csv names a group.", ""]),
+             *(group_lines or ["The runs' cases.csv share no group column.", ""]),
              f"## The {len(comparison.changed)} changed cases", "",
              markdown_table(comparison.changed, "{:.3f}") if len(comparison.changed) else "No case changed.", "",
              "![each changed case's error before and after](compare.png)", ""]
