@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from vehloc.benchmark.report import GATES
+from vehloc.benchmark.report import GATES, rates
 from vehloc.errors import DataError
 
 DRAW_COLUMNS = ("model_id", "camera_name", "x_mm", "y_mm", "heading_deg")
@@ -191,17 +191,18 @@ def group_rates(before: pd.DataFrame, after: pd.DataFrame) -> pd.DataFrame:
     """Per split (`split_parts`), group column (`GROUP_COLUMNS` that both runs hold) and group: the group's cases
     and each gate's rate (per cent of the group's cases in the gate) before and after, in `<gate>_before_pct` and
     `<gate>_after_pct`. The same cases in the same order in both frames: a group is the same cases in both runs."""
-    rows = []
-    for split, part in split_parts(before):
-        for by in (column for column in GROUP_COLUMNS if column in before and column in after):
-            for group, cases in part.groupby(by, sort=True):
-                row = {"split": split, "by": by, "group": str(group), "cases": len(cases)}
-                for gate in GATES:
-                    row[f"{gate}_before_pct"] = rate_pct(cases[gate].to_numpy(dtype=float))
-                    row[f"{gate}_after_pct"] = rate_pct(after.loc[cases.index, gate].to_numpy(dtype=float))
-                rows.append(row)
     columns = ["split", "by", "group", "cases", *(f"{gate}_{run}_pct" for gate in GATES for run in ("before", "after"))]
-    return pd.DataFrame(rows, columns=columns)
+    tables = []
+    for split, part in split_parts(before):
+        other = after.loc[part.index]
+        for by in (column for column in GROUP_COLUMNS if column in before and column in after):
+            # each run's rates per group (`rates`), the groups taken from the run before in both
+            runs = [rates(frame.assign(**{by: part[by]}), [by]) for frame in (part, other)]
+            table = runs[0].merge(runs[1], on=[by, "cases"], suffixes=("_before", "_after"))
+            table = table.rename(columns={f"{gate}_pct_{run}": f"{gate}_{run}_pct" for gate in GATES
+                                          for run in ("before", "after")})
+            tables.append(table.assign(split=split, by=by, group=table[by].astype(str)))
+    return pd.concat(tables, ignore_index=True)[columns] if tables else pd.DataFrame(columns=columns)
 
 
 def compare_runs(before: pd.DataFrame, after: pd.DataFrame, names: tuple[str, str] = ("before", "after")
