@@ -52,7 +52,9 @@ def read_truth_cars(path: str | Path) -> list[TruthCar]:
 
 @dataclass(frozen=True)
 class MovingError:
-    """One localized record's model fit against its car at that frame (mm, deg)."""
+    """One localized record's model fit against its car at that frame (mm, deg): the distance from the camera's foot
+    to the car's centre, the centre's and the near end's errors, the near end's along the car's heading (+ away from
+    the camera) and the heading's, signed (the length axes' difference, in [-90, 90))."""
 
     frame: int
     track_id: int
@@ -70,8 +72,11 @@ def matched_car(box_px: Box, cars: list[TruthCar], frame: int, min_iou: float) -
     best, best_iou = None, min_iou
     for car in cars:
         truth = car.at(frame)
-        if truth is not None and box_px.iou(truth[1]) >= best_iou:
-            best, best_iou = (car, truth[0]), box_px.iou(truth[1])
+        if truth is None:
+            continue
+        iou = box_px.iou(truth[1])
+        if iou >= best_iou:
+            best, best_iou = (car, truth[0]), iou
     return best
 
 
