@@ -111,15 +111,16 @@ def main() -> None:
         cars = read_truth_cars(folder / "scene" / "ground_truth.json")
         calibration = exact_calibration(spec.camera)
         localizer = Localizer(classifier, calibration, settings)
-        records = 0
+        records, matched = 0, 0
         for index, frame in enumerate(iter_frames(video)):
             for record in localizer.process(index, frame):
                 records += 1
                 error = moving_error(record, cars, calibration.camera.centre_mm, args.min_iou)
                 if error is not None:
+                    matched += 1
                     rows.append({"scene": args.scene, "seed": seed} | asdict(error))
-        print(f"{args.scene} seed {seed}: {len(cars)} cars, {records} records, "
-              f"{sum(r['seed'] == seed for r in rows)} matched, {time.perf_counter() - started:.0f} s", flush=True)
+        print(f"{args.scene} seed {seed}: {len(cars)} cars, {records} records, {matched} matched, "
+              f"{time.perf_counter() - started:.0f} s", flush=True)
     if not rows:
         raise DataError("no localized record matched a car: nothing to score")
 
